@@ -1,0 +1,312 @@
+//! Assembling decoded packets into revolutions.
+//!
+//! A revolution is a run of whole packets. It ends with the packet whose last block's azimuth
+//! wraps past the revolution's starting azimuth after more than half a turn of coverage — the
+//! starting azimuth being the configured cut azimuth, or, without one, the last azimuth of the
+//! previous revolution (so revolutions follow each other seamlessly wherever the stream began).
+//! This is velodyne-decoder's rule, so frames agree with its reference decodes packet for packet.
+//!
+//! A revolution is also cut early, *before* the packet that would break it, when that packet came
+//! too long after the revolution's first one (a gap in the stream), when it would not fit in the
+//! configured capacity, or when the return mode or product changes; the header's `cut_reason`
+//! says which.
+
+use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason, return_type};
+
+use crate::decode::{Decoder, DecoderConfig, PacketCounts, ScanReturnSelect};
+use crate::packet::{BLOCKS, CHANNELS, DataPacket, DecodeError};
+
+/// Nanoseconds in an hour: the period of the sensor's timestamp.
+const HOUR_NS: u64 = 3_600_000_000_000;
+
+/// Settings of the assembler.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AssemblerConfig {
+    /// Decoder settings.
+    pub decoder: DecoderConfig,
+    /// Azimuth where revolutions are cut, 0.01°; `None` cuts wherever a full turn completes.
+    pub cut_azimuth_cdeg: Option<u16>,
+    /// Longest time a revolution may span (host clock and sensor clock), ns.
+    pub max_duration_ns: u64,
+    /// Most points a revolution may hold; the capacity of the published payload.
+    pub max_points: usize,
+}
+
+impl Default for AssemblerConfig {
+    fn default() -> Self {
+        Self {
+            decoder: DecoderConfig::default(),
+            cut_azimuth_cdeg: None,
+            max_duration_ns: 300_000_000,
+            max_points: max_points_per_revolution(300.0, 0.3),
+        }
+    }
+}
+
+/// Worst-case points of a revolution lasting at most `max_duration_s` of a sensor spinning at
+/// `rpm`, in dual-return mode (every channel of every block pair giving two returns).
+pub fn max_points_per_revolution(rpm: f64, max_duration_s: f64) -> usize {
+    max_packets_per_revolution(rpm, max_duration_s) * (BLOCKS / 2) * CHANNELS * 2
+}
+
+/// Worst-case data packets of a revolution: the longer of one turn and `max_duration_s`, at the
+/// dual-return packet rate (the higher), plus a margin of two packets.
+pub fn max_packets_per_revolution(rpm: f64, max_duration_s: f64) -> usize {
+    let turn_s = 60.0 / rpm.max(1.0);
+    let dual_packet_s = 6.0 * 2.0 * 55.296e-6;
+    (turn_s.max(max_duration_s) / dual_packet_s).ceil() as usize + 2
+}
+
+/// Worst-case firings of one laser in a revolution (the length of a planar scan).
+pub fn max_scan_len(rpm: f64, max_duration_s: f64) -> usize {
+    // single-return mode fires 24 sequences per packet at half the dual packet rate
+    max_packets_per_revolution(rpm, max_duration_s) * BLOCKS
+}
+
+/// Resolves a sensor timestamp (µs past the top of the hour) to ns since the Unix epoch, taking
+/// the hour from `reference_ns` (host or capture time) and correcting by an hour where the two
+/// are more than half an hour apart.
+pub fn resolve_top_of_hour(us_past_hour: u32, reference_ns: u64) -> u64 {
+    let t = reference_ns - reference_ns % HOUR_NS + u64::from(us_past_hour) * 1000;
+    if t > reference_ns + HOUR_NS / 2 {
+        t.saturating_sub(HOUR_NS)
+    } else if t + HOUR_NS / 2 < reference_ns {
+        t + HOUR_NS
+    } else {
+        t
+    }
+}
+
+/// One assembled revolution: the points, the planar scan of the configured laser and their
+/// headers, ready to publish.
+#[derive(Debug, Clone, Default)]
+pub struct Revolution {
+    /// Header of the points.
+    pub header: PointsHeader,
+    /// The points, in packet order.
+    pub points: Vec<Point>,
+    /// Header of the planar scan.
+    pub scan_header: ScanHeader,
+    /// The planar scan, one return per firing of the laser, in firing order.
+    pub scan: Vec<ScanReturn>,
+    first_us: u32,
+    first_host_ns: u64,
+    last_azimuth: u16,
+}
+
+impl Revolution {
+    fn clear(&mut self) {
+        self.header = PointsHeader::default();
+        self.scan_header = ScanHeader::default();
+        self.points.clear();
+        self.scan.clear();
+    }
+
+    fn is_empty(&self) -> bool {
+        self.header.packet_count == 0
+    }
+}
+
+/// Cuts a packet stream into revolutions (see the module docs).
+#[derive(Debug)]
+pub struct Assembler {
+    config: AssemblerConfig,
+    decoder: Decoder,
+    cur: Revolution,
+    out: Revolution,
+    start_azimuth: Option<i32>,
+    coverage: i32,
+    next_seq: u64,
+    packet_seq: u64,
+}
+
+impl Assembler {
+    /// A new assembler; the first revolution gets sequence number 0.
+    pub fn new(config: AssemblerConfig) -> Self {
+        let decoder = Decoder::new(config.decoder.clone());
+        let mut cur = Revolution::default();
+        cur.points.reserve(config.max_points);
+        let mut out = Revolution::default();
+        out.points.reserve(config.max_points);
+        Assembler {
+            start_azimuth: config.cut_azimuth_cdeg.map(i32::from),
+            config,
+            decoder,
+            cur,
+            out,
+            coverage: 0,
+            next_seq: 0,
+            packet_seq: 0,
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &AssemblerConfig {
+        &self.config
+    }
+
+    /// Data packets accepted so far.
+    pub fn packets_accepted(&self) -> u64 {
+        self.packet_seq
+    }
+
+    /// Feeds one data-packet datagram received at `host_ns` (ns since the Unix epoch: the
+    /// receive time, or the capture timestamp when replaying) and `rx_mono_ns`
+    /// (`CLOCK_MONOTONIC`). Returns the revolution it completed, if any; the reference stays
+    /// valid until the next call. A packet that fails validation changes nothing.
+    pub fn push(
+        &mut self,
+        bytes: &[u8],
+        host_ns: u64,
+        rx_mono_ns: u64,
+    ) -> Result<Option<&Revolution>, DecodeError> {
+        let pkt = DataPacket::parse(bytes, self.config.decoder.accept_product_0x21)?;
+        let mut completed = false;
+        if !self.cur.is_empty() {
+            if let Some(reason) = self.early_cut(&pkt, host_ns) {
+                self.complete(reason);
+                completed = true;
+            }
+        }
+        self.add(&pkt, host_ns, rx_mono_ns);
+        let az = i32::from(pkt.azimuth(BLOCKS - 1));
+        let start = *self.start_azimuth.get_or_insert(az);
+        let coverage = (az - start + 36000) % 36000;
+        let wrapped = self.coverage > 18000 && self.coverage > coverage;
+        self.coverage = coverage;
+        if wrapped {
+            // A packet that completes a revolution right after an early cut cannot happen: the
+            // early cut resets the coverage to zero.
+            debug_assert!(!completed);
+            self.complete(cut_reason::AZIMUTH);
+            completed = true;
+        }
+        Ok(if completed { Some(&self.out) } else { None })
+    }
+
+    /// Ends the stream: returns the partial revolution collected since the last complete one,
+    /// if it holds any packet.
+    pub fn finish(&mut self) -> Option<&Revolution> {
+        if self.cur.is_empty() {
+            return None;
+        }
+        self.complete(cut_reason::END_OF_STREAM);
+        Some(&self.out)
+    }
+
+    fn early_cut(&self, pkt: &DataPacket<'_>, host_ns: u64) -> Option<u8> {
+        let h = &self.cur.header;
+        if pkt.return_mode() != h.return_mode || pkt.product() != h.product {
+            return Some(cut_reason::MODE_CHANGE);
+        }
+        if self.cur.points.len() + BLOCKS * CHANNELS > self.config.max_points {
+            return Some(cut_reason::CAPACITY);
+        }
+        let host_span = host_ns.saturating_sub(self.cur.first_host_ns);
+        let sensor_span = self.sensor_offset_ns(pkt.timestamp_us());
+        if host_span > self.config.max_duration_ns || sensor_span > self.config.max_duration_ns {
+            return Some(cut_reason::DURATION);
+        }
+        None
+    }
+
+    /// Sensor time of a packet relative to the revolution's first packet, ns (a step backwards
+    /// reads as almost an hour).
+    fn sensor_offset_ns(&self, us: u32) -> u64 {
+        let hour_us = (HOUR_NS / 1000) as i64;
+        (i64::from(us) - i64::from(self.cur.first_us)).rem_euclid(hour_us) as u64 * 1000
+    }
+
+    fn add(&mut self, pkt: &DataPacket<'_>, host_ns: u64, rx_mono_ns: u64) {
+        let cur = &mut self.cur;
+        if cur.is_empty() {
+            cur.first_us = pkt.timestamp_us();
+            cur.first_host_ns = host_ns;
+            cur.header.stamp_ns = resolve_top_of_hour(pkt.timestamp_us(), host_ns);
+            cur.header.first_packet_seq = self.packet_seq;
+            cur.header.return_mode = pkt.return_mode();
+            cur.header.product = pkt.product();
+        }
+        let offset = self
+            .sensor_offset_ns(pkt.timestamp_us())
+            .min(u64::from(u32::MAX)) as u32;
+        let cur = &mut self.cur;
+        let c: PacketCounts = self
+            .decoder
+            .decode(pkt, offset, &mut cur.points, &mut cur.scan);
+        let h = &mut cur.header;
+        h.packet_count += 1;
+        h.point_count += c.points;
+        h.strongest_count += c.strongest;
+        h.last_count += c.last;
+        h.both_count += c.both;
+        h.rx_mono_ns = rx_mono_ns;
+        cur.last_azimuth = pkt.azimuth(BLOCKS - 1);
+        self.packet_seq += 1;
+    }
+
+    fn complete(&mut self, reason: u8) {
+        std::mem::swap(&mut self.cur, &mut self.out);
+        self.cur.clear();
+        let out = &mut self.out;
+        out.header.seq = self.next_seq;
+        out.header.cut_reason = reason;
+        self.next_seq += 1;
+        let dc = &self.config.decoder;
+        out.scan_header = ScanHeader {
+            seq: out.header.seq,
+            stamp_ns: out.header.stamp_ns,
+            rx_mono_ns: out.header.rx_mono_ns,
+            count: out.scan.len() as u32,
+            elevation_rad: dc
+                .scan_laser
+                .map(|l| Decoder::elevation_rad(out.header.product, usize::from(l)))
+                .unwrap_or(0.0),
+            laser_id: dc.scan_laser.unwrap_or(0),
+            return_select: match dc.scan_return {
+                ScanReturnSelect::Strongest => return_type::STRONGEST,
+                ScanReturnSelect::Last => return_type::LAST,
+            },
+            reserved: [0; 6],
+        };
+        self.start_azimuth = match self.config.cut_azimuth_cdeg {
+            Some(cut) => Some(i32::from(cut)),
+            None => Some(i32::from(out.last_azimuth)),
+        };
+        self.coverage = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hour_ambiguity_is_resolved_both_ways() {
+        let hour = HOUR_NS;
+        let base = 1000 * hour;
+        // packet 10 s past the hour, host 20 s past: same hour
+        assert_eq!(
+            resolve_top_of_hour(10_000_000, base + 20_000_000_000),
+            base + 10_000_000_000
+        );
+        // packet 59 min past the hour, host 1 min past the next hour: previous hour
+        assert_eq!(
+            resolve_top_of_hour(3_540_000_000, base + 60_000_000_000),
+            base - hour + 3_540_000_000_000
+        );
+        // packet 1 min past, host at 59 min: next hour
+        assert_eq!(
+            resolve_top_of_hour(60_000_000, base + 3_540_000_000_000),
+            base + hour + 60_000_000_000
+        );
+    }
+
+    #[test]
+    fn capacity_covers_a_slow_dual_revolution() {
+        // 300 rpm dual: 0.2 s at 1507 packets/s is 302 packets of up to 384 points
+        let n = max_points_per_revolution(300.0, 0.3);
+        assert!(n >= 302 * 384, "{n}");
+        assert!(n < 200_000, "{n}");
+    }
+}

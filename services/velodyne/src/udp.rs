@@ -1,0 +1,177 @@
+//! Receiving VLP-16 datagrams from UDP sockets: data packets on one port, position packets on
+//! another (2368 and 8308 by default), with an optional source-address filter.
+
+use std::io;
+use std::net::{IpAddr, SocketAddr, UdpSocket};
+use std::time::Duration;
+
+/// Settings of the UDP source.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UdpConfig {
+    /// Local address to bind (0.0.0.0 for every interface).
+    pub bind_address: IpAddr,
+    /// Port of the data packets.
+    pub data_port: u16,
+    /// Port of the position packets, or `None` not to listen for them.
+    pub position_port: Option<u16>,
+    /// Accept datagrams from this sender only.
+    pub allowed_source: Option<IpAddr>,
+}
+
+/// Which socket a datagram came in on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Port {
+    /// The data port.
+    Data,
+    /// The position port.
+    Position,
+}
+
+/// A received datagram (the bytes are in the caller's buffer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Received {
+    /// Bytes received.
+    pub len: usize,
+    /// Sender.
+    pub from: SocketAddr,
+    /// Socket it came in on.
+    pub port: Port,
+}
+
+/// The bound sockets.
+#[derive(Debug)]
+pub struct UdpSource {
+    data: UdpSocket,
+    position: Option<UdpSocket>,
+    allowed_source: Option<IpAddr>,
+    rejected: u64,
+}
+
+impl UdpSource {
+    /// Binds the sockets. `poll` is how long [`UdpSource::recv`] waits on the data socket before
+    /// returning `None`, so the caller's loop can do its housekeeping.
+    pub fn bind(config: &UdpConfig, poll: Duration) -> io::Result<Self> {
+        let data = UdpSocket::bind((config.bind_address, config.data_port))?;
+        data.set_read_timeout(Some(poll.max(Duration::from_millis(1))))?;
+        let position = match config.position_port {
+            Some(p) => {
+                let s = UdpSocket::bind((config.bind_address, p))?;
+                s.set_nonblocking(true)?;
+                Some(s)
+            }
+            None => None,
+        };
+        Ok(UdpSource {
+            data,
+            position,
+            allowed_source: config.allowed_source,
+            rejected: 0,
+        })
+    }
+
+    /// The local address of the data socket (useful when bound to port 0).
+    pub fn data_addr(&self) -> io::Result<SocketAddr> {
+        self.data.local_addr()
+    }
+
+    /// The local address of the position socket, if any.
+    pub fn position_addr(&self) -> Option<io::Result<SocketAddr>> {
+        self.position.as_ref().map(|s| s.local_addr())
+    }
+
+    /// Datagrams dropped because they came from a sender other than the allowed one.
+    pub fn rejected(&self) -> u64 {
+        self.rejected
+    }
+
+    /// Receives the next datagram into `buf`: a waiting position packet first, else a data
+    /// packet, waiting up to the poll time. `Ok(None)` when nothing came. Datagrams larger than
+    /// `buf` are truncated by the OS; the returned length then equals `buf.len()` and the
+    /// decoder rejects it by size.
+    pub fn recv(&mut self, buf: &mut [u8]) -> io::Result<Option<Received>> {
+        loop {
+            if let Some(pos) = &self.position {
+                match pos.recv_from(buf) {
+                    Ok((len, from)) => {
+                        if self.accepts(from) {
+                            return Ok(Some(Received {
+                                len,
+                                from,
+                                port: Port::Position,
+                            }));
+                        }
+                        continue;
+                    }
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+                    Err(e) => return Err(e),
+                }
+            }
+            return match self.data.recv_from(buf) {
+                Ok((len, from)) => {
+                    if !self.accepts(from) {
+                        continue;
+                    }
+                    Ok(Some(Received {
+                        len,
+                        from,
+                        port: Port::Data,
+                    }))
+                }
+                Err(e)
+                    if e.kind() == io::ErrorKind::WouldBlock
+                        || e.kind() == io::ErrorKind::TimedOut
+                        || e.kind() == io::ErrorKind::Interrupted =>
+                {
+                    Ok(None)
+                }
+                Err(e) => Err(e),
+            };
+        }
+    }
+
+    fn accepts(&mut self, from: SocketAddr) -> bool {
+        match self.allowed_source {
+            Some(a) if a != from.ip() => {
+                self.rejected += 1;
+                false
+            }
+            _ => true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn receives_on_both_ports_and_filters_the_sender() {
+        let cfg = UdpConfig {
+            bind_address: IpAddr::from([127, 0, 0, 1]),
+            data_port: 0,
+            position_port: Some(0),
+            allowed_source: Some(IpAddr::from([127, 0, 0, 1])),
+        };
+        let mut src = UdpSource::bind(&cfg, Duration::from_millis(200)).expect("bind");
+        let data_addr = src.data_addr().expect("addr");
+        let pos_addr = src.position_addr().expect("pos").expect("addr");
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("tx");
+        tx.send_to(&[1u8; 1206], data_addr).expect("send");
+        tx.send_to(&[2u8; 512], pos_addr).expect("send");
+        std::thread::sleep(Duration::from_millis(20));
+        let mut buf = [0u8; 2048];
+        let a = src.recv(&mut buf).expect("recv").expect("datagram");
+        assert_eq!((a.port, a.len), (Port::Position, 512));
+        let b = src.recv(&mut buf).expect("recv").expect("datagram");
+        assert_eq!((b.port, b.len), (Port::Data, 1206));
+        assert_eq!(src.recv(&mut buf).expect("recv"), None);
+
+        // a sender on another loopback address is dropped and counted
+        let other = UdpSocket::bind("127.0.0.2:0");
+        if let Ok(other) = other {
+            other.send_to(&[1u8; 1206], data_addr).expect("send");
+            assert_eq!(src.recv(&mut buf).expect("recv"), None);
+            assert_eq!(src.rejected(), 1);
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! What every mimnav process shares: the topic contract ([`topics`]), the IPC layer that opens
+//! them with the project's settings ([`ipc`]), the config loader ([`config`]), logging
+//! ([`logging`]) and rate-limited fault counting ([`faults`]).
+#![deny(missing_docs)]
+
+pub mod topics;

@@ -1,0 +1,224 @@
+//! The topic contract: every payload that crosses a process boundary, and the name of every topic.
+//!
+//! Each payload is `#[repr(C)]`, holds no pointer or heap data, derives [`ZeroCopySend`] and
+//! carries an explicit, versioned `type_name`. Changing the layout of a type means bumping the
+//! version in its name: iceoryx2 then refuses to connect an old process to a new one instead of
+//! letting it read garbage.
+//!
+//! Every message carries a sequence number and timestamps so latency and drops can be measured
+//! end to end (DESIGN §2):
+//! - `stamp_ns`: the sensor's (or simulator's) time of the data, nanoseconds since the Unix epoch;
+//! - `rx_mono_ns`: `CLOCK_MONOTONIC` when the data entered the stack (the same clock in every
+//!   process on the machine, so differences between processes are meaningful).
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Topic of one assembled lidar revolution: `[Point]` with a [`PointsHeader`].
+pub const LIDAR_POINTS: &str = "mimnav/lidar/points";
+/// Topic of one laser of a revolution as a planar scan: `[ScanReturn]` with a [`ScanHeader`].
+pub const LIDAR_SCAN2D: &str = "mimnav/lidar/scan2d";
+/// Topic of the raw sensor packets, one [`RawPacket`] per datagram (optional, off by default).
+pub const LIDAR_PACKETS: &str = "mimnav/lidar/packets";
+
+/// Event id a publisher notifies with after it sent a sample.
+pub const EVENT_NEW_DATA: usize = 0;
+/// Event id a replaying source notifies with once its capture has ended and every sample of it
+/// was sent; receivers can stop waiting.
+pub const EVENT_END_OF_STREAM: usize = 1;
+
+/// Return-type bits of a [`Point`] and a [`ScanReturn`].
+pub mod return_type {
+    /// The strongest return of the firing (single-return mode 0x37, or the odd block in dual mode).
+    pub const STRONGEST: u8 = 1;
+    /// The last return of the firing (single-return mode 0x38, or the even block in dual mode).
+    pub const LAST: u8 = 2;
+    /// Both: in dual mode the two blocks hold the same distance, so the firing had one return.
+    pub const BOTH: u8 = STRONGEST | LAST;
+}
+
+/// One lidar return in the sensor frame (REP-103: x forward, y left, z up; metres).
+///
+/// 24 bytes. `z` is `d·sin(elevation)` measured from the sensor's optical centre, without the
+/// per-laser vertical offset some decoders add.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/Point/v1")]
+pub struct Point {
+    /// Forward, metres.
+    pub x: f32,
+    /// Left, metres.
+    pub y: f32,
+    /// Up, metres.
+    pub z: f32,
+    /// Firing time relative to the revolution's `stamp_ns`, nanoseconds.
+    pub time_offset_ns: u32,
+    /// Raw distance in the sensor's 2 mm units (never 0: a missing return is not a point).
+    pub distance_raw: u16,
+    /// Interpolated azimuth of the firing, hundredths of a degree in [0, 36000), clockwise seen
+    /// from above (the sensor's own convention).
+    pub azimuth_cdeg: u16,
+    /// Calibrated reflectivity byte: 0–100 diffuse, 101–255 retro-reflectors.
+    pub intensity: u8,
+    /// Laser id within a firing sequence, 0–15 (firing order).
+    pub laser_id: u8,
+    /// Ring, 0–15 ordered by elevation (−15° is 0, +15° is 15).
+    pub ring: u8,
+    /// [`return_type`] bits.
+    pub return_type: u8,
+}
+
+impl Point {
+    /// Distance from the optical centre, metres.
+    pub fn distance_m(&self) -> f32 {
+        f32::from(self.distance_raw) * 0.002
+    }
+}
+
+/// Sensor return mode as the packet's byte 1204 says.
+pub mod return_mode {
+    /// Strongest return only.
+    pub const STRONGEST: u8 = 0x37;
+    /// Last return only.
+    pub const LAST: u8 = 0x38;
+    /// Dual return: last and strongest.
+    pub const DUAL: u8 = 0x39;
+}
+
+/// User header of a `lidar/points` sample: one revolution.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/PointsHeader/v1")]
+pub struct PointsHeader {
+    /// Revolution sequence number, counting from 0 at the driver's start.
+    pub seq: u64,
+    /// Sensor time of the revolution's first firing, ns since the Unix epoch.
+    pub stamp_ns: u64,
+    /// `CLOCK_MONOTONIC` when the revolution's last packet was received (or replayed), ns.
+    pub rx_mono_ns: u64,
+    /// Sequence number (data packets since start) of the revolution's first packet.
+    pub first_packet_seq: u64,
+    /// Number of data packets in the revolution.
+    pub packet_count: u32,
+    /// Number of points in the payload.
+    pub point_count: u32,
+    /// Points with the strongest return only.
+    pub strongest_count: u32,
+    /// Points with the last return only.
+    pub last_count: u32,
+    /// Points that are both (dual mode, identical blocks).
+    pub both_count: u32,
+    /// Return mode byte of the revolution's packets (see [`return_mode`]).
+    pub return_mode: u8,
+    /// Product byte of the revolution's packets (0x22 VLP-16).
+    pub product: u8,
+    /// Why the revolution ended (see [`cut_reason`]).
+    pub cut_reason: u8,
+    /// Reserved, zero.
+    pub reserved: u8,
+}
+
+/// Why a revolution was cut where it was ([`PointsHeader::cut_reason`]).
+pub mod cut_reason {
+    /// The azimuth passed the cut (a full turn): the normal case.
+    pub const AZIMUTH: u8 = 0;
+    /// Too long since the revolution's first packet (a gap in the stream or a slow sensor).
+    pub const DURATION: u8 = 1;
+    /// The next packet would not fit in the payload's capacity.
+    pub const CAPACITY: u8 = 2;
+    /// The return mode or product changed mid-revolution.
+    pub const MODE_CHANGE: u8 = 3;
+    /// The stream ended (end of a capture): the revolution may be partial.
+    pub const END_OF_STREAM: u8 = 4;
+}
+
+/// One firing of the chosen laser in a planar scan.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/ScanReturn/v1")]
+pub struct ScanReturn {
+    /// Bearing in the sensor frame, radians, counter-clockwise from x (REP-103), in (−π, π].
+    pub angle_rad: f32,
+    /// Horizontal range (distance · cos(elevation)), metres; 0 means no return.
+    pub range_m: f32,
+    /// Reflectivity byte, 0 where there is no return.
+    pub intensity: u8,
+    /// [`return_type`] bits of the return used, 0 where there is none.
+    pub return_type: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 2],
+}
+
+/// User header of a `lidar/scan2d` sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/ScanHeader/v1")]
+pub struct ScanHeader {
+    /// Sequence number of the revolution ([`PointsHeader::seq`]) the scan was taken from.
+    pub seq: u64,
+    /// Sensor time of the scan's first firing, ns since the Unix epoch.
+    pub stamp_ns: u64,
+    /// `CLOCK_MONOTONIC` when the revolution's last packet was received, ns.
+    pub rx_mono_ns: u64,
+    /// Number of returns in the payload, one per firing of the laser, in firing order.
+    pub count: u32,
+    /// Elevation of the laser, radians.
+    pub elevation_rad: f32,
+    /// Laser id (0–15) the scan was taken from.
+    pub laser_id: u8,
+    /// Which return was used: [`return_type::STRONGEST`] or [`return_type::LAST`].
+    pub return_select: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 6],
+}
+
+/// Size of a VLP-16 data packet's UDP payload.
+pub const DATA_PACKET_LEN: usize = 1206;
+
+/// One raw sensor datagram, as received.
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/RawPacket/v1")]
+pub struct RawPacket {
+    /// Data-packet sequence number since the driver's start.
+    pub seq: u64,
+    /// Host receive time (or capture timestamp when replaying), ns since the Unix epoch.
+    pub host_ns: u64,
+    /// `CLOCK_MONOTONIC` when the packet was received (or replayed), ns.
+    pub rx_mono_ns: u64,
+    /// Bytes used in `data`.
+    pub len: u32,
+    /// UDP destination port the packet came to.
+    pub port: u16,
+    /// Reserved, zero.
+    pub reserved: [u8; 2],
+    /// The UDP payload.
+    pub data: [u8; DATA_PACKET_LEN],
+}
+
+impl Default for RawPacket {
+    fn default() -> Self {
+        Self {
+            seq: 0,
+            host_ns: 0,
+            rx_mono_ns: 0,
+            len: 0,
+            port: 0,
+            reserved: [0; 2],
+            data: [0; DATA_PACKET_LEN],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn payload_layouts_are_stable() {
+        // A change here changes the wire format: bump the type_name version with it.
+        assert_eq!(core::mem::size_of::<Point>(), 24);
+        assert_eq!(core::mem::size_of::<ScanReturn>(), 12);
+        assert_eq!(core::mem::size_of::<PointsHeader>(), 56);
+        assert_eq!(core::mem::size_of::<ScanHeader>(), 40);
+    }
+}
