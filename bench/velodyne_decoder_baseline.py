@@ -64,9 +64,9 @@ def default_pcap():
 
 def import_deps():
     try:
+        import velodyne_decoder as vd
         import dpkt  # noqa: F401
         import numpy  # noqa: F401
-        import velodyne_decoder as vd
     except ImportError as e:
         print("error: cannot import %s (%s).\n"
               "Install the reference decoder first, e.g.\n"

@@ -3,4 +3,7 @@
 //! ([`logging`]) and rate-limited fault counting ([`faults`]).
 #![deny(missing_docs)]
 
+pub mod config;
+pub mod faults;
+pub mod logging;
 pub mod topics;

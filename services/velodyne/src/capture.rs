@@ -479,6 +479,82 @@ fn scale_pcapng_ts(units: u64, resol: u8) -> u64 {
     ns.min(u128::from(u64::MAX)) as u64
 }
 
+/// Writes UDP datagrams to a classic pcap file (Ethernet, IPv4, µs timestamps, little-endian),
+/// the way a sensor's traffic looks when captured with tcpdump. The simulator and the tests use
+/// it to make captures.
+pub struct PcapDatagramWriter<W: std::io::Write> {
+    inner: pcap_file::pcap::PcapWriter<W>,
+    frame: Vec<u8>,
+    ip_id: u16,
+}
+
+impl<W: std::io::Write> PcapDatagramWriter<W> {
+    /// Writes the file header.
+    pub fn new(out: W) -> Result<Self, PcapError> {
+        let header = pcap_file::pcap::PcapHeader {
+            endianness: pcap_file::Endianness::Little,
+            ..Default::default()
+        };
+        Ok(PcapDatagramWriter {
+            inner: pcap_file::pcap::PcapWriter::with_header(out, header)?,
+            frame: Vec::with_capacity(1600),
+            ip_id: 0,
+        })
+    }
+
+    /// Appends one datagram from `src` to `dst` stamped `ts_ns` (ns since the Unix epoch).
+    pub fn write(
+        &mut self,
+        ts_ns: u64,
+        src: (std::net::Ipv4Addr, u16),
+        dst: (std::net::Ipv4Addr, u16),
+        payload: &[u8],
+    ) -> Result<(), PcapError> {
+        let udp_len = u16::try_from(payload.len() + 8)
+            .map_err(|_| PcapError::InvalidField("datagram longer than 65527 bytes"))?;
+        let f = &mut self.frame;
+        f.clear();
+        f.extend_from_slice(&[0xFF; 6]); // destination MAC: broadcast, as the sensor sends
+        f.extend_from_slice(&[0x60, 0x76, 0x88, 0x00, 0x00, 0x01]); // a Velodyne OUI
+        f.extend_from_slice(&0x0800u16.to_be_bytes());
+        let ip_start = f.len();
+        f.extend_from_slice(&[0x45, 0]);
+        f.extend_from_slice(&(udp_len + 20).to_be_bytes());
+        f.extend_from_slice(&self.ip_id.to_be_bytes());
+        f.extend_from_slice(&[0x40, 0, 64, 17, 0, 0]);
+        f.extend_from_slice(&src.0.octets());
+        f.extend_from_slice(&dst.0.octets());
+        let sum = !ones_complement_sum(&f[ip_start..ip_start + 20]);
+        f[ip_start + 10..ip_start + 12].copy_from_slice(&sum.to_be_bytes());
+        f.extend_from_slice(&src.1.to_be_bytes());
+        f.extend_from_slice(&dst.1.to_be_bytes());
+        f.extend_from_slice(&udp_len.to_be_bytes());
+        f.extend_from_slice(&[0, 0]); // no UDP checksum, as the VLP-16 sends
+        f.extend_from_slice(payload);
+        self.ip_id = self.ip_id.wrapping_add(1);
+        let packet = pcap_file::pcap::PcapPacket::new(
+            std::time::Duration::from_nanos(ts_ns),
+            f.len() as u32,
+            f,
+        );
+        self.inner.write_packet(&packet)?;
+        Ok(())
+    }
+
+    /// The underlying writer (flush it before use).
+    pub fn into_inner(self) -> W {
+        self.inner.into_writer()
+    }
+}
+
+fn ones_complement_sum(b: &[u8]) -> u16 {
+    let mut sum: u32 = b.chunks(2).map(|c| u32::from(u16::from_be_bytes([c[0], *c.get(1).unwrap_or(&0)]))).sum();
+    while sum > 0xFFFF {
+        sum = (sum & 0xFFFF) + (sum >> 16);
+    }
+    sum as u16
+}
+
 /// Tells whether `link` is a link type [`udp_in_frame`] understands.
 pub fn link_type_supported(link: DataLink) -> bool {
     matches!(

@@ -314,7 +314,7 @@ pub fn parse_gprmc(sentence: &str) -> Option<f64> {
         return None;
     }
     let date = f.nth(6)?;
-    if hms.len() < 6 || date.len() != 6 || !hms.is_char_boundary(6) {
+    if hms.len() < 6 || date.len() != 6 || !hms.is_ascii() || !date.is_ascii() {
         return None;
     }
     let num = |s: &str| s.parse::<u32>().ok();
@@ -343,6 +343,43 @@ fn days_from_civil(y: i64, m: u32, d: u32) -> i64 {
     let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + i64::from(d) - 1;
     let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
     era * 146097 + doe - 719468
+}
+
+/// Builds a data packet: the inverse of [`DataPacket`], used by the simulator and the tests.
+/// `blocks[b]` is the block's azimuth (0.01°) and its 32 channel records (raw distance, 2 mm
+/// units; reflectivity).
+pub fn encode_data_packet(
+    timestamp_us: u32,
+    return_mode: u8,
+    product: u8,
+    blocks: &[(u16, [(u16, u8); CHANNELS]); BLOCKS],
+) -> [u8; DATA_PACKET_LEN] {
+    let mut p = [0u8; DATA_PACKET_LEN];
+    for (b, (azimuth, channels)) in blocks.iter().enumerate() {
+        let o = 100 * b;
+        p[o] = 0xFF;
+        p[o + 1] = 0xEE;
+        p[o + 2..o + 4].copy_from_slice(&azimuth.to_le_bytes());
+        for (c, (d, r)) in channels.iter().enumerate() {
+            let q = o + 4 + 3 * c;
+            p[q..q + 2].copy_from_slice(&d.to_le_bytes());
+            p[q + 2] = *r;
+        }
+    }
+    p[1200..1204].copy_from_slice(&timestamp_us.to_le_bytes());
+    p[1204] = return_mode;
+    p[1205] = product;
+    p
+}
+
+/// Builds a position packet with `nmea` (truncated to fit) after the PPS status byte.
+pub fn encode_position_packet(timestamp_us: u32, pps: u8, nmea: &str) -> [u8; POSITION_PACKET_LEN] {
+    let mut p = [0u8; POSITION_PACKET_LEN];
+    p[198..202].copy_from_slice(&timestamp_us.to_le_bytes());
+    p[202] = pps;
+    let n = nmea.len().min(POSITION_PACKET_LEN - 206 - 1);
+    p[206..206 + n].copy_from_slice(&nmea.as_bytes()[..n]);
+    p
 }
 
 #[cfg(test)]

@@ -1,0 +1,549 @@
+//! The config loader: one TOML file configures the whole stack.
+//!
+//! ```toml
+//! [robot]            # a profile from robots/NAME.toml beside this file, keys may be overridden
+//! profile = "turtlebot2"
+//!
+//! [log]
+//! level = "info"     # a tracing filter; the MIMNAV_LOG environment variable wins
+//!
+//! [iceoryx2.global]  # passed to iceoryx2's own Config (kebab-case keys)
+//! root-path = "/tmp/mimnav/iceoryx2/"
+//! prefix = "mimnav_"
+//!
+//! [velodyne]         # one section per process
+//! input = "udp"
+//! ```
+//!
+//! Every key has a documented default (see the README's config table); unknown keys, wrong types
+//! and out-of-range values are errors that name the file, the key and what is allowed.
+//! `--set key.path=value` on a service's command line overrides one key (the value is TOML; a
+//! bare word is taken as a string).
+
+use std::fmt;
+use std::net::IpAddr;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde::de::DeserializeOwned;
+
+/// Default location of the stack's config file when a service is started without `--config`.
+pub const DEFAULT_CONFIG_PATH: &str = "/etc/mimnav/mimnav.toml";
+
+/// Why the configuration cannot be used.
+#[derive(Debug)]
+pub struct ConfigError {
+    /// The file (or `--set` option) at fault.
+    pub source_name: String,
+    /// What is wrong, naming the key.
+    pub message: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.source_name, self.message)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+fn err(source: impl fmt::Display, message: impl Into<String>) -> ConfigError {
+    ConfigError { source_name: source.to_string(), message: message.into() }
+}
+
+/// The whole stack's configuration.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// The file it was read from (empty for the built-in defaults).
+    pub path: PathBuf,
+    /// The robot profile.
+    pub robot: RobotProfile,
+    /// Logging.
+    pub log: LogConfig,
+    /// iceoryx2's own settings, with the project's root path and prefix.
+    pub iceoryx2: iceoryx2::config::Config,
+    /// The VLP-16 driver.
+    pub velodyne: VelodyneConfig,
+}
+
+/// The keys of the config file as written.
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct FileConfig {
+    robot: toml::Table,
+    log: LogConfig,
+    iceoryx2: toml::Table,
+    velodyne: VelodyneConfig,
+}
+
+/// A robot: footprint, sensor mounting and motion limits (`config/robots/NAME.toml`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotProfile {
+    /// Profile name.
+    pub name: String,
+    /// Radius of the circle that encloses the footprint, metres.
+    pub radius_m: f64,
+    /// Height of the lidar's optical centre above the ground, metres.
+    pub sensor_height_m: f64,
+    /// Height of the robot's top above the ground, metres.
+    pub height_m: f64,
+    /// Largest forward speed, m/s.
+    pub max_linear_mps: f64,
+    /// Largest turn rate, rad/s.
+    pub max_angular_rps: f64,
+    /// Largest linear acceleration, m/s².
+    pub max_linear_accel: f64,
+    /// Largest angular acceleration, rad/s².
+    pub max_angular_accel: f64,
+    /// How long a velocity command stays valid on the base, seconds.
+    pub command_validity_s: f64,
+}
+
+impl Default for RobotProfile {
+    /// The Turtlebot 2 (DESIGN §4).
+    fn default() -> Self {
+        RobotProfile {
+            name: "turtlebot2".into(),
+            radius_m: 0.20,
+            sensor_height_m: 0.5,
+            height_m: 0.6,
+            max_linear_mps: 0.5,
+            max_angular_rps: 1.5,
+            max_linear_accel: 0.6,
+            max_angular_accel: 3.0,
+            command_validity_s: 0.5,
+        }
+    }
+}
+
+/// Logging.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LogConfig {
+    /// A `tracing` filter (`info`, `mimnav_velodyne=debug,info`, …); `MIMNAV_LOG` overrides it.
+    pub level: String,
+}
+
+impl Default for LogConfig {
+    fn default() -> Self {
+        LogConfig { level: "info".into() }
+    }
+}
+
+/// Where the driver's datagrams come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VelodyneInput {
+    /// A UDP socket: a live sensor, or a simulator streaming.
+    Udp,
+    /// A pcap or pcapng capture (`velodyne.pcap`).
+    Pcap,
+}
+
+/// Which return of a dual pair the planar scan takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ScanReturnConfig {
+    /// The strongest return.
+    Strongest,
+    /// The last return.
+    Last,
+}
+
+/// The VLP-16 driver (`[velodyne]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VelodyneConfig {
+    /// `udp` or `pcap`.
+    pub input: VelodyneInput,
+    /// Address the UDP sockets bind to.
+    pub bind_address: IpAddr,
+    /// UDP port of the data packets.
+    pub data_port: u16,
+    /// UDP port of the position packets; 0 does not listen for them.
+    pub position_port: u16,
+    /// Accept datagrams from this sender only (the sensor's address).
+    pub allowed_source: Option<IpAddr>,
+    /// Capture file replayed when `input = "pcap"`.
+    pub pcap: Option<PathBuf>,
+    /// Replay speed factor (1.0 is real time).
+    pub replay_speed: f64,
+    /// Replay as fast as possible instead of by the capture's timestamps.
+    pub replay_fast: bool,
+    /// Start the capture over when it ends.
+    pub replay_loop: bool,
+    /// Gaps in the capture longer than this are shortened to it, seconds.
+    pub replay_max_gap_s: f64,
+    /// After a capture ends, keep the topics open this long so subscribers can take the last
+    /// samples, then exit; seconds.
+    pub replay_linger_s: f64,
+    /// Sensor rotation rate, revolutions per minute (the sensor's own setting, 300–1200).
+    pub rpm: f64,
+    /// Cut revolutions where the azimuth passes this angle (degrees, clockwise from forward);
+    /// unset: wherever a full turn completes.
+    pub cut_azimuth_deg: Option<f64>,
+    /// Drop returns nearer than this, metres.
+    pub min_range_m: f64,
+    /// Drop returns farther than this, metres.
+    pub max_range_m: f64,
+    /// Decode product byte 0x21 (early VLP-16 firmware) as a VLP-16.
+    pub accept_product_0x21: bool,
+    /// Laser id (0–15, firing order) published as the planar scan; 14 is the −1° laser.
+    pub scan_laser: u8,
+    /// Return of a dual pair the planar scan takes: `strongest` or `last`.
+    pub scan_return: ScanReturnConfig,
+    /// Publish every raw datagram on `lidar/packets`.
+    pub publish_packets: bool,
+    /// Interval of the statistics log line, seconds.
+    pub stats_interval_s: f64,
+}
+
+impl Default for VelodyneConfig {
+    fn default() -> Self {
+        VelodyneConfig {
+            input: VelodyneInput::Udp,
+            bind_address: IpAddr::from([0, 0, 0, 0]),
+            data_port: 2368,
+            position_port: 8308,
+            allowed_source: None,
+            pcap: None,
+            replay_speed: 1.0,
+            replay_fast: false,
+            replay_loop: false,
+            replay_max_gap_s: 1.0,
+            replay_linger_s: 2.0,
+            rpm: 600.0,
+            cut_azimuth_deg: None,
+            min_range_m: 0.1,
+            max_range_m: 200.0,
+            accept_product_0x21: false,
+            scan_laser: 14,
+            scan_return: ScanReturnConfig::Strongest,
+            publish_packets: false,
+            stats_interval_s: 10.0,
+        }
+    }
+}
+
+/// Collects range violations as "key = value is out of range: allowed …".
+struct Ranges(Vec<String>);
+
+impl Ranges {
+    fn check(&mut self, key: &str, value: f64, lo: f64, hi: f64) {
+        if !(value >= lo && value <= hi) {
+            self.0.push(format!("{key} = {value} is out of range: allowed {lo} to {hi}"));
+        }
+    }
+    fn require(&mut self, ok: bool, message: impl Into<String>) {
+        if !ok {
+            self.0.push(message.into());
+        }
+    }
+}
+
+impl VelodyneConfig {
+    fn validate(&self, r: &mut Ranges) {
+        r.check("velodyne.replay_speed", self.replay_speed, 0.01, 100.0);
+        r.check("velodyne.replay_max_gap_s", self.replay_max_gap_s, 0.001, 3600.0);
+        r.check("velodyne.replay_linger_s", self.replay_linger_s, 0.0, 60.0);
+        r.check("velodyne.rpm", self.rpm, 300.0, 1200.0);
+        if let Some(c) = self.cut_azimuth_deg {
+            r.check("velodyne.cut_azimuth_deg", c, 0.0, 359.99);
+        }
+        r.check("velodyne.min_range_m", self.min_range_m, 0.0, 200.0);
+        r.check("velodyne.max_range_m", self.max_range_m, 0.1, 200.0);
+        r.require(
+            self.min_range_m < self.max_range_m,
+            format!(
+                "velodyne.min_range_m = {} must be below velodyne.max_range_m = {}",
+                self.min_range_m, self.max_range_m
+            ),
+        );
+        r.check("velodyne.scan_laser", f64::from(self.scan_laser), 0.0, 15.0);
+        r.check("velodyne.stats_interval_s", self.stats_interval_s, 0.1, 3600.0);
+        r.check("velodyne.data_port", f64::from(self.data_port), 1.0, 65535.0);
+        r.require(
+            self.input != VelodyneInput::Pcap || self.pcap.is_some(),
+            "velodyne.input = \"pcap\" needs velodyne.pcap = \"FILE\"",
+        );
+    }
+}
+
+impl RobotProfile {
+    fn validate(&self, r: &mut Ranges) {
+        r.check("robot.radius_m", self.radius_m, 0.05, 3.0);
+        r.check("robot.sensor_height_m", self.sensor_height_m, 0.05, 3.0);
+        r.check("robot.height_m", self.height_m, 0.05, 3.0);
+        r.check("robot.max_linear_mps", self.max_linear_mps, 0.01, 5.0);
+        r.check("robot.max_angular_rps", self.max_angular_rps, 0.01, 10.0);
+        r.check("robot.max_linear_accel", self.max_linear_accel, 0.01, 20.0);
+        r.check("robot.max_angular_accel", self.max_angular_accel, 0.01, 50.0);
+        r.check("robot.command_validity_s", self.command_validity_s, 0.01, 10.0);
+    }
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            path: PathBuf::new(),
+            robot: RobotProfile::default(),
+            log: LogConfig::default(),
+            iceoryx2: project_iceoryx2_defaults(),
+            velodyne: VelodyneConfig::default(),
+        }
+    }
+}
+
+/// Root path of iceoryx2's files unless the config says otherwise. Not under iceoryx2's default
+/// `/tmp/iceoryx2/`, so mimnav never meets another application's services; the systemd units
+/// use a path under `/run` instead (a private `/tmp` would hide it).
+pub const DEFAULT_IOX2_ROOT: &str = "/tmp/mimnav/iceoryx2/";
+/// Prefix of iceoryx2's files unless the config says otherwise.
+pub const DEFAULT_IOX2_PREFIX: &str = "mimnav_";
+
+fn project_iceoryx2_defaults() -> iceoryx2::config::Config {
+    let mut table = toml::Table::new();
+    let mut global = toml::Table::new();
+    global.insert("root-path".into(), DEFAULT_IOX2_ROOT.into());
+    global.insert("prefix".into(), DEFAULT_IOX2_PREFIX.into());
+    table.insert("global".into(), global.into());
+    // the two values above are valid by construction
+    iceoryx2_config(&table, "built-in defaults").unwrap_or_default()
+}
+
+/// Builds iceoryx2's Config from a partial `[iceoryx2]` table: iceoryx2's defaults, then the
+/// project's root path and prefix, then the table. Keys iceoryx2 does not know are errors.
+fn iceoryx2_config(table: &toml::Table, source: &str) -> Result<iceoryx2::config::Config, ConfigError> {
+    let defaults = toml::Table::try_from(iceoryx2::config::Config::default())
+        .map_err(|e| err(source, format!("iceoryx2 defaults do not serialise: {e}")))?;
+    let mut merged = defaults.clone();
+    let mut project = toml::Table::new();
+    let mut global = toml::Table::new();
+    global.insert("root-path".into(), DEFAULT_IOX2_ROOT.into());
+    global.insert("prefix".into(), DEFAULT_IOX2_PREFIX.into());
+    project.insert("global".into(), global.into());
+    merge(&mut merged, &project, &defaults, "iceoryx2", source)?;
+    merge(&mut merged, table, &defaults, "iceoryx2", source)?;
+    iceoryx2::config::Config::deserialize(toml::Value::Table(merged))
+        .map_err(|e| err(source, format!("[iceoryx2]: {e}")))
+}
+
+/// Overlays `over` onto `base`, refusing keys that `known` does not have.
+fn merge(
+    base: &mut toml::Table,
+    over: &toml::Table,
+    known: &toml::Table,
+    path: &str,
+    source: &str,
+) -> Result<(), ConfigError> {
+    for (k, v) in over {
+        let key = format!("{path}.{k}");
+        let Some(known_v) = known.get(k) else {
+            let mut keys: Vec<&str> = known.keys().map(String::as_str).collect();
+            keys.sort_unstable();
+            return Err(err(source, format!("unknown key `{key}`; expected one of: {}", keys.join(", "))));
+        };
+        match (v, known_v, base.get_mut(k)) {
+            (toml::Value::Table(vt), toml::Value::Table(kt), Some(toml::Value::Table(bt))) => {
+                merge(bt, vt, kt, &key, source)?
+            }
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Sets `key.path = value` in `table`; `value` is TOML, a bare word is a string.
+fn set_key(table: &mut toml::Table, assignment: &str) -> Result<(), ConfigError> {
+    let source = format!("--set {assignment}");
+    let (key, value) = assignment
+        .split_once('=')
+        .ok_or_else(|| err(&source, "expected KEY=VALUE, e.g. velodyne.rpm=600"))?;
+    let key = key.trim();
+    let value = value.trim();
+    let parsed: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
+        Ok(mut t) => t.remove("v").unwrap_or_else(|| value.into()),
+        Err(_) => toml::Value::String(value.to_string()),
+    };
+    let mut parts: Vec<&str> = key.split('.').collect();
+    let last = parts.pop().filter(|p| !p.is_empty()).ok_or_else(|| err(&source, "empty key"))?;
+    let mut t = table;
+    for p in parts {
+        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Table::new().into());
+        t = entry
+            .as_table_mut()
+            .ok_or_else(|| err(&source, format!("`{p}` is not a table")))?;
+    }
+    t.insert(last.to_string(), parsed);
+    Ok(())
+}
+
+fn section<T: DeserializeOwned>(v: toml::Value, name: &str, source: &str) -> Result<T, ConfigError> {
+    T::deserialize(v).map_err(|e| err(source, format!("[{name}]: {}", e.message().trim())))
+}
+
+impl Config {
+    /// Reads `path`, applies the `--set` overrides, loads the robot profile and checks every
+    /// value.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| err(&shown, format!("cannot read: {e}")))?;
+        Self::from_toml(&text, path, overrides)
+    }
+
+    /// Parses config text as if read from `path` (robot profiles are looked up beside it).
+    pub fn from_toml(text: &str, path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
+        let shown = path.display().to_string();
+        // A strict parse of the file as written gives line and column for its own mistakes.
+        toml::from_str::<FileConfig>(text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| err(&shown, e.to_string()))?;
+        let source = if overrides.is_empty() { shown.clone() } else { format!("{shown} with --set") };
+        for o in overrides {
+            set_key(&mut table, o)?;
+        }
+        let file: FileConfig = section(toml::Value::Table(table), "config", &source)
+            .map_err(|mut e| {
+                e.message = e.message.replacen("[config]: ", "", 1);
+                e
+            })?;
+        let robot = Self::robot(file.robot, path, &source)?;
+        let iceoryx2 = iceoryx2_config(&file.iceoryx2, &source)?;
+        let config = Config { path: path.to_path_buf(), robot, log: file.log, iceoryx2, velodyne: file.velodyne };
+        let mut r = Ranges(Vec::new());
+        config.robot.validate(&mut r);
+        config.velodyne.validate(&mut r);
+        if !r.0.is_empty() {
+            return Err(err(&source, r.0.join("; ")));
+        }
+        Ok(config)
+    }
+
+    /// `[robot]`: `profile = NAME` loads `robots/NAME.toml` beside the config file; the other
+    /// keys override the profile's.
+    fn robot(mut section_table: toml::Table, path: &Path, source: &str) -> Result<RobotProfile, ConfigError> {
+        let mut base = toml::Table::try_from(RobotProfile::default())
+            .map_err(|e| err(source, format!("robot defaults: {e}")))?;
+        if let Some(profile) = section_table.remove("profile") {
+            let name = profile
+                .as_str()
+                .filter(|n| !n.is_empty() && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'))
+                .ok_or_else(|| err(source, format!("robot.profile = {profile} must be a name like \"spot\"")))?;
+            let dir = path.parent().unwrap_or(Path::new("."));
+            let file = dir.join("robots").join(format!("{name}.toml"));
+            let shown = file.display().to_string();
+            let text = std::fs::read_to_string(&file)
+                .map_err(|e| err(source, format!("robot.profile = \"{name}\": cannot read {shown}: {e}")))?;
+            let parsed: RobotProfile = toml::from_str(&text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
+            base = toml::Table::try_from(parsed).map_err(|e| err(&shown, e.to_string()))?;
+        }
+        for (k, v) in section_table {
+            base.insert(k, v);
+        }
+        section(toml::Value::Table(base), "robot", source)
+    }
+
+    /// Sets iceoryx2's root path and prefix (tests give every run its own pair).
+    pub fn set_iceoryx2_location(&mut self, root_path: &str, prefix: &str) -> Result<(), ConfigError> {
+        let mut t = toml::Table::new();
+        let mut g = toml::Table::new();
+        g.insert("root-path".into(), root_path.into());
+        g.insert("prefix".into(), prefix.into());
+        t.insert("global".into(), g.into());
+        let located = iceoryx2_config(&t, "iceoryx2 location")?;
+        self.iceoryx2.global.prefix = located.global.prefix;
+        self.iceoryx2.global.set_root_path(located.global.root_path());
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Config, ConfigError> {
+        Config::from_toml(text, Path::new("test.toml"), &[])
+    }
+
+    #[test]
+    fn empty_file_gives_the_documented_defaults() {
+        let c = parse("").expect("defaults");
+        assert_eq!(c.velodyne, VelodyneConfig::default());
+        assert_eq!(c.robot, RobotProfile::default());
+        assert_eq!(c.iceoryx2.global.prefix.to_string(), DEFAULT_IOX2_PREFIX);
+        assert_eq!(c.iceoryx2.global.root_path().to_string(), DEFAULT_IOX2_ROOT);
+    }
+
+    #[test]
+    fn unknown_key_names_file_line_and_key() {
+        let e = parse("[velodyne]\nrmp = 600\n").expect_err("unknown key");
+        let s = e.to_string();
+        assert!(s.starts_with("test.toml: "), "{s}");
+        assert!(s.contains("rmp"), "{s}");
+        assert!(s.contains("line 2"), "{s}");
+    }
+
+    #[test]
+    fn out_of_range_names_key_and_range() {
+        let e = parse("[velodyne]\nrpm = 50\n").expect_err("range");
+        assert_eq!(e.to_string(), "test.toml: velodyne.rpm = 50 is out of range: allowed 300 to 1200");
+        let e = parse("[velodyne]\ninput = \"pcap\"\n").expect_err("pcap without file");
+        assert!(e.to_string().contains("velodyne.pcap"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_is_refused() {
+        let e = parse("[velodyne]\ndata_port = \"x\"\n").expect_err("type");
+        assert!(e.to_string().contains("data_port") || e.to_string().contains("line 2"), "{e}");
+        let e = parse("[velodyne]\ndata_port = 70000\n").expect_err("u16");
+        assert!(e.to_string().contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn iceoryx2_table_is_passed_and_checked() {
+        let c = parse("[iceoryx2.global]\nprefix = \"abc_\"\n[iceoryx2.defaults.publish-subscribe]\nmax-subscribers = 3\n")
+            .expect("iceoryx2 table");
+        assert_eq!(c.iceoryx2.global.prefix.to_string(), "abc_");
+        assert_eq!(c.iceoryx2.defaults.publish_subscribe.max_subscribers, 3);
+        let e = parse("[iceoryx2.global]\nprefx = \"abc_\"\n").expect_err("unknown iceoryx2 key");
+        assert!(e.to_string().contains("iceoryx2.global.prefx"), "{e}");
+    }
+
+    #[test]
+    fn set_overrides_a_key() {
+        let c = Config::from_toml(
+            "[velodyne]\nrpm = 600\n",
+            Path::new("t.toml"),
+            &["velodyne.rpm=900".into(), "velodyne.pcap=/data/x.pcap".into()],
+        )
+        .expect("override");
+        assert_eq!(c.velodyne.rpm, 900.0);
+        assert_eq!(c.velodyne.pcap, Some(PathBuf::from("/data/x.pcap")));
+        let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
+        assert!(e.to_string().contains("KEY=VALUE"), "{e}");
+        let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.nope=1".into()]).expect_err("unknown");
+        assert!(e.to_string().contains("nope"), "{e}");
+    }
+
+    #[test]
+    fn robot_profile_is_loaded_and_overridden() {
+        let dir = std::env::temp_dir().join(format!("mimnav-config-test-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("robots")).expect("dir");
+        std::fs::write(
+            dir.join("robots/bigbot.toml"),
+            "name = \"bigbot\"\nradius_m = 0.6\nsensor_height_m = 0.7\n",
+        )
+        .expect("write");
+        let path = dir.join("mimnav.toml");
+        let c = Config::from_toml("[robot]\nprofile = \"bigbot\"\nmax_linear_mps = 0.3\n", &path, &[])
+            .expect("profile");
+        assert_eq!(c.robot.name, "bigbot");
+        assert_eq!(c.robot.radius_m, 0.6);
+        assert_eq!(c.robot.max_linear_mps, 0.3);
+        let e = Config::from_toml("[robot]\nprofile = \"nobot\"\n", &path, &[]).expect_err("missing profile");
+        assert!(e.to_string().contains("nobot.toml"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
