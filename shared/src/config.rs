@@ -24,8 +24,8 @@ use std::fmt;
 use std::net::IpAddr;
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
 /// Default location of the stack's config file when a service is started without `--config`.
 pub const DEFAULT_CONFIG_PATH: &str = "/etc/mimnav/mimnav.toml";
@@ -48,7 +48,10 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 fn err(source: impl fmt::Display, message: impl Into<String>) -> ConfigError {
-    ConfigError { source_name: source.to_string(), message: message.into() }
+    ConfigError {
+        source_name: source.to_string(),
+        message: message.into(),
+    }
 }
 
 /// The whole stack's configuration.
@@ -127,7 +130,9 @@ pub struct LogConfig {
 
 impl Default for LogConfig {
     fn default() -> Self {
-        LogConfig { level: "info".into() }
+        LogConfig {
+            level: "info".into(),
+        }
     }
 }
 
@@ -232,7 +237,9 @@ struct Ranges(Vec<String>);
 impl Ranges {
     fn check(&mut self, key: &str, value: f64, lo: f64, hi: f64) {
         if !(value >= lo && value <= hi) {
-            self.0.push(format!("{key} = {value} is out of range: allowed {lo} to {hi}"));
+            self.0.push(format!(
+                "{key} = {value} is out of range: allowed {lo} to {hi}"
+            ));
         }
     }
     fn require(&mut self, ok: bool, message: impl Into<String>) {
@@ -245,7 +252,12 @@ impl Ranges {
 impl VelodyneConfig {
     fn validate(&self, r: &mut Ranges) {
         r.check("velodyne.replay_speed", self.replay_speed, 0.01, 100.0);
-        r.check("velodyne.replay_max_gap_s", self.replay_max_gap_s, 0.001, 3600.0);
+        r.check(
+            "velodyne.replay_max_gap_s",
+            self.replay_max_gap_s,
+            0.001,
+            3600.0,
+        );
         r.check("velodyne.replay_linger_s", self.replay_linger_s, 0.0, 60.0);
         r.check("velodyne.rpm", self.rpm, 300.0, 1200.0);
         if let Some(c) = self.cut_azimuth_deg {
@@ -261,8 +273,18 @@ impl VelodyneConfig {
             ),
         );
         r.check("velodyne.scan_laser", f64::from(self.scan_laser), 0.0, 15.0);
-        r.check("velodyne.stats_interval_s", self.stats_interval_s, 0.1, 3600.0);
-        r.check("velodyne.data_port", f64::from(self.data_port), 1.0, 65535.0);
+        r.check(
+            "velodyne.stats_interval_s",
+            self.stats_interval_s,
+            0.1,
+            3600.0,
+        );
+        r.check(
+            "velodyne.data_port",
+            f64::from(self.data_port),
+            1.0,
+            65535.0,
+        );
         r.require(
             self.input != VelodyneInput::Pcap || self.pcap.is_some(),
             "velodyne.input = \"pcap\" needs velodyne.pcap = \"FILE\"",
@@ -278,8 +300,18 @@ impl RobotProfile {
         r.check("robot.max_linear_mps", self.max_linear_mps, 0.01, 5.0);
         r.check("robot.max_angular_rps", self.max_angular_rps, 0.01, 10.0);
         r.check("robot.max_linear_accel", self.max_linear_accel, 0.01, 20.0);
-        r.check("robot.max_angular_accel", self.max_angular_accel, 0.01, 50.0);
-        r.check("robot.command_validity_s", self.command_validity_s, 0.01, 10.0);
+        r.check(
+            "robot.max_angular_accel",
+            self.max_angular_accel,
+            0.01,
+            50.0,
+        );
+        r.check(
+            "robot.command_validity_s",
+            self.command_validity_s,
+            0.01,
+            10.0,
+        );
     }
 }
 
@@ -314,7 +346,10 @@ fn project_iceoryx2_defaults() -> iceoryx2::config::Config {
 
 /// Builds iceoryx2's Config from a partial `[iceoryx2]` table: iceoryx2's defaults, then the
 /// project's root path and prefix, then the table. Keys iceoryx2 does not know are errors.
-fn iceoryx2_config(table: &toml::Table, source: &str) -> Result<iceoryx2::config::Config, ConfigError> {
+fn iceoryx2_config(
+    table: &toml::Table,
+    source: &str,
+) -> Result<iceoryx2::config::Config, ConfigError> {
     let defaults = toml::Table::try_from(iceoryx2::config::Config::default())
         .map_err(|e| err(source, format!("iceoryx2 defaults do not serialise: {e}")))?;
     let mut merged = defaults.clone();
@@ -342,7 +377,10 @@ fn merge(
         let Some(known_v) = known.get(k) else {
             let mut keys: Vec<&str> = known.keys().map(String::as_str).collect();
             keys.sort_unstable();
-            return Err(err(source, format!("unknown key `{key}`; expected one of: {}", keys.join(", "))));
+            return Err(err(
+                source,
+                format!("unknown key `{key}`; expected one of: {}", keys.join(", ")),
+            ));
         };
         match (v, known_v, base.get_mut(k)) {
             (toml::Value::Table(vt), toml::Value::Table(kt), Some(toml::Value::Table(bt))) => {
@@ -354,6 +392,11 @@ fn merge(
         }
     }
     Ok(())
+}
+
+/// `s` as a TOML basic string, quoted and escaped (for building `--set key=value` arguments).
+pub fn toml_quote(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
 }
 
 /// Sets `key.path = value` in `table`; `value` is TOML, a bare word is a string.
@@ -369,10 +412,15 @@ fn set_key(table: &mut toml::Table, assignment: &str) -> Result<(), ConfigError>
         Err(_) => toml::Value::String(value.to_string()),
     };
     let mut parts: Vec<&str> = key.split('.').collect();
-    let last = parts.pop().filter(|p| !p.is_empty()).ok_or_else(|| err(&source, "empty key"))?;
+    let last = parts
+        .pop()
+        .filter(|p| !p.is_empty())
+        .ok_or_else(|| err(&source, "empty key"))?;
     let mut t = table;
     for p in parts {
-        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Table::new().into());
+        let entry = t
+            .entry(p.to_string())
+            .or_insert_with(|| toml::Table::new().into());
         t = entry
             .as_table_mut()
             .ok_or_else(|| err(&source, format!("`{p}` is not a table")))?;
@@ -381,7 +429,11 @@ fn set_key(table: &mut toml::Table, assignment: &str) -> Result<(), ConfigError>
     Ok(())
 }
 
-fn section<T: DeserializeOwned>(v: toml::Value, name: &str, source: &str) -> Result<T, ConfigError> {
+fn section<T: DeserializeOwned>(
+    v: toml::Value,
+    name: &str,
+    source: &str,
+) -> Result<T, ConfigError> {
     T::deserialize(v).map_err(|e| err(source, format!("[{name}]: {}", e.message().trim())))
 }
 
@@ -390,8 +442,26 @@ impl Config {
     /// value.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| err(&shown, format!("cannot read: {e}")))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| err(&shown, format!("cannot read: {e}")))?;
         Self::from_toml(&text, path, overrides)
+    }
+
+    /// The config a service or tool starts with: the file given (`--config` or `MIMNAV_CONFIG`)
+    /// must exist; without one, [`DEFAULT_CONFIG_PATH`] if it exists; else the built-in defaults.
+    pub fn resolve(explicit: Option<&Path>, overrides: &[String]) -> Result<Config, ConfigError> {
+        match explicit {
+            Some(p) => Config::load(p, overrides),
+            None if Path::new(DEFAULT_CONFIG_PATH).exists() => {
+                Config::load(Path::new(DEFAULT_CONFIG_PATH), overrides)
+            }
+            None => Config::from_toml("", Path::new("built-in defaults"), overrides),
+        }
+    }
+
+    /// True when this config came from a file (not the built-in defaults).
+    pub fn from_file(&self) -> bool {
+        self.path.is_file()
     }
 
     /// Parses config text as if read from `path` (robot profiles are looked up beside it).
@@ -399,19 +469,30 @@ impl Config {
         let shown = path.display().to_string();
         // A strict parse of the file as written gives line and column for its own mistakes.
         toml::from_str::<FileConfig>(text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
-        let mut table: toml::Table = toml::from_str(text).map_err(|e| err(&shown, e.to_string()))?;
-        let source = if overrides.is_empty() { shown.clone() } else { format!("{shown} with --set") };
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| err(&shown, e.to_string()))?;
+        let source = if overrides.is_empty() {
+            shown.clone()
+        } else {
+            format!("{shown} with --set")
+        };
         for o in overrides {
             set_key(&mut table, o)?;
         }
-        let file: FileConfig = section(toml::Value::Table(table), "config", &source)
-            .map_err(|mut e| {
+        let file: FileConfig =
+            section(toml::Value::Table(table), "config", &source).map_err(|mut e| {
                 e.message = e.message.replacen("[config]: ", "", 1);
                 e
             })?;
         let robot = Self::robot(file.robot, path, &source)?;
         let iceoryx2 = iceoryx2_config(&file.iceoryx2, &source)?;
-        let config = Config { path: path.to_path_buf(), robot, log: file.log, iceoryx2, velodyne: file.velodyne };
+        let config = Config {
+            path: path.to_path_buf(),
+            robot,
+            log: file.log,
+            iceoryx2,
+            velodyne: file.velodyne,
+        };
         let mut r = Ranges(Vec::new());
         config.robot.validate(&mut r);
         config.velodyne.validate(&mut r);
@@ -423,20 +504,38 @@ impl Config {
 
     /// `[robot]`: `profile = NAME` loads `robots/NAME.toml` beside the config file; the other
     /// keys override the profile's.
-    fn robot(mut section_table: toml::Table, path: &Path, source: &str) -> Result<RobotProfile, ConfigError> {
+    fn robot(
+        mut section_table: toml::Table,
+        path: &Path,
+        source: &str,
+    ) -> Result<RobotProfile, ConfigError> {
         let mut base = toml::Table::try_from(RobotProfile::default())
             .map_err(|e| err(source, format!("robot defaults: {e}")))?;
         if let Some(profile) = section_table.remove("profile") {
             let name = profile
                 .as_str()
-                .filter(|n| !n.is_empty() && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'))
-                .ok_or_else(|| err(source, format!("robot.profile = {profile} must be a name like \"spot\"")))?;
+                .filter(|n| {
+                    !n.is_empty()
+                        && n.chars()
+                            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+                })
+                .ok_or_else(|| {
+                    err(
+                        source,
+                        format!("robot.profile = {profile} must be a name like \"spot\""),
+                    )
+                })?;
             let dir = path.parent().unwrap_or(Path::new("."));
             let file = dir.join("robots").join(format!("{name}.toml"));
             let shown = file.display().to_string();
-            let text = std::fs::read_to_string(&file)
-                .map_err(|e| err(source, format!("robot.profile = \"{name}\": cannot read {shown}: {e}")))?;
-            let parsed: RobotProfile = toml::from_str(&text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
+            let text = std::fs::read_to_string(&file).map_err(|e| {
+                err(
+                    source,
+                    format!("robot.profile = \"{name}\": cannot read {shown}: {e}"),
+                )
+            })?;
+            let parsed: RobotProfile =
+                toml::from_str(&text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
             base = toml::Table::try_from(parsed).map_err(|e| err(&shown, e.to_string()))?;
         }
         for (k, v) in section_table {
@@ -446,7 +545,11 @@ impl Config {
     }
 
     /// Sets iceoryx2's root path and prefix (tests give every run its own pair).
-    pub fn set_iceoryx2_location(&mut self, root_path: &str, prefix: &str) -> Result<(), ConfigError> {
+    pub fn set_iceoryx2_location(
+        &mut self,
+        root_path: &str,
+        prefix: &str,
+    ) -> Result<(), ConfigError> {
         let mut t = toml::Table::new();
         let mut g = toml::Table::new();
         g.insert("root-path".into(), root_path.into());
@@ -454,7 +557,9 @@ impl Config {
         t.insert("global".into(), g.into());
         let located = iceoryx2_config(&t, "iceoryx2 location")?;
         self.iceoryx2.global.prefix = located.global.prefix;
-        self.iceoryx2.global.set_root_path(located.global.root_path());
+        self.iceoryx2
+            .global
+            .set_root_path(located.global.root_path());
         Ok(())
     }
 }
@@ -488,7 +593,10 @@ mod tests {
     #[test]
     fn out_of_range_names_key_and_range() {
         let e = parse("[velodyne]\nrpm = 50\n").expect_err("range");
-        assert_eq!(e.to_string(), "test.toml: velodyne.rpm = 50 is out of range: allowed 300 to 1200");
+        assert_eq!(
+            e.to_string(),
+            "test.toml: velodyne.rpm = 50 is out of range: allowed 300 to 1200"
+        );
         let e = parse("[velodyne]\ninput = \"pcap\"\n").expect_err("pcap without file");
         assert!(e.to_string().contains("velodyne.pcap"), "{e}");
     }
@@ -496,7 +604,10 @@ mod tests {
     #[test]
     fn wrong_type_is_refused() {
         let e = parse("[velodyne]\ndata_port = \"x\"\n").expect_err("type");
-        assert!(e.to_string().contains("data_port") || e.to_string().contains("line 2"), "{e}");
+        assert!(
+            e.to_string().contains("data_port") || e.to_string().contains("line 2"),
+            "{e}"
+        );
         let e = parse("[velodyne]\ndata_port = 70000\n").expect_err("u16");
         assert!(e.to_string().contains("line 2"), "{e}");
     }
@@ -516,14 +627,19 @@ mod tests {
         let c = Config::from_toml(
             "[velodyne]\nrpm = 600\n",
             Path::new("t.toml"),
-            &["velodyne.rpm=900".into(), "velodyne.pcap=/data/x.pcap".into()],
+            &[
+                "velodyne.rpm=900".into(),
+                "velodyne.pcap=/data/x.pcap".into(),
+            ],
         )
         .expect("override");
         assert_eq!(c.velodyne.rpm, 900.0);
         assert_eq!(c.velodyne.pcap, Some(PathBuf::from("/data/x.pcap")));
-        let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
+        let e =
+            Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
         assert!(e.to_string().contains("KEY=VALUE"), "{e}");
-        let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.nope=1".into()]).expect_err("unknown");
+        let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.nope=1".into()])
+            .expect_err("unknown");
         assert!(e.to_string().contains("nope"), "{e}");
     }
 
@@ -537,12 +653,17 @@ mod tests {
         )
         .expect("write");
         let path = dir.join("mimnav.toml");
-        let c = Config::from_toml("[robot]\nprofile = \"bigbot\"\nmax_linear_mps = 0.3\n", &path, &[])
-            .expect("profile");
+        let c = Config::from_toml(
+            "[robot]\nprofile = \"bigbot\"\nmax_linear_mps = 0.3\n",
+            &path,
+            &[],
+        )
+        .expect("profile");
         assert_eq!(c.robot.name, "bigbot");
         assert_eq!(c.robot.radius_m, 0.6);
         assert_eq!(c.robot.max_linear_mps, 0.3);
-        let e = Config::from_toml("[robot]\nprofile = \"nobot\"\n", &path, &[]).expect_err("missing profile");
+        let e = Config::from_toml("[robot]\nprofile = \"nobot\"\n", &path, &[])
+            .expect_err("missing profile");
         assert!(e.to_string().contains("nobot.toml"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -26,7 +26,10 @@ pub struct Faults {
 impl Faults {
     /// Logs each kind at most once per `interval`.
     pub fn new(interval: Duration) -> Self {
-        Faults { interval, entries: Vec::new() }
+        Faults {
+            interval,
+            entries: Vec::new(),
+        }
     }
 
     /// Counts one fault of `kind` at `now`; logs `detail` (a warning) unless this kind was
@@ -35,13 +38,20 @@ impl Faults {
         let i = match self.entries.iter().position(|e| e.kind == kind) {
             Some(i) => i,
             None => {
-                self.entries.push(Entry { kind, total: 0, unreported: 0, last_report: None });
+                self.entries.push(Entry {
+                    kind,
+                    total: 0,
+                    unreported: 0,
+                    last_report: None,
+                });
                 self.entries.len() - 1
             }
         };
         let e = &mut self.entries[i];
         e.total += 1;
-        let due = e.last_report.is_none_or(|t| now.saturating_duration_since(t) >= self.interval);
+        let due = e
+            .last_report
+            .is_none_or(|t| now.saturating_duration_since(t) >= self.interval);
         if !due {
             e.unreported += 1;
             return false;
@@ -64,7 +74,10 @@ impl Faults {
 
     /// Count of `kind` so far.
     pub fn count(&self, kind: &str) -> u64 {
-        self.entries.iter().find(|e| e.kind == kind).map_or(0, |e| e.total)
+        self.entries
+            .iter()
+            .find(|e| e.kind == kind)
+            .map_or(0, |e| e.total)
     }
 
     /// All faults so far.
@@ -77,7 +90,11 @@ impl Faults {
         if self.entries.is_empty() {
             return "none".into();
         }
-        self.entries.iter().map(|e| format!("{}={}", e.kind, e.total)).collect::<Vec<_>>().join(" ")
+        self.entries
+            .iter()
+            .map(|e| format!("{}={}", e.kind, e.total))
+            .collect::<Vec<_>>()
+            .join(" ")
     }
 }
 

@@ -5,5 +5,6 @@
 
 pub mod config;
 pub mod faults;
+pub mod ipc;
 pub mod logging;
 pub mod topics;

@@ -18,7 +18,10 @@ pub fn init(level: &str) {
         },
         _ => match EnvFilter::try_new(level) {
             Ok(f) => (f, None),
-            Err(e) => (EnvFilter::new("info"), Some(format!("log.level = {level:?}: {e}"))),
+            Err(e) => (
+                EnvFilter::new("info"),
+                Some(format!("log.level = {level:?}: {e}")),
+            ),
         },
     };
     let max = filter.max_level_hint().unwrap_or(LevelFilter::TRACE);

@@ -1,1 +1,83 @@
-fn main() {}
+//! `mimnav`: the command-line front end. It starts the services as separate processes and shows
+//! what they publish; it never runs an algorithm itself.
+
+mod procs;
+mod replay;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use mimnav_shared::config::Config;
+
+/// mimnav: lidar-intensity navigation for a robot with a Velodyne VLP-16.
+#[derive(Debug, Parser)]
+#[command(name = "mimnav", version)]
+struct Cli {
+    /// The stack's config file [default: $MIMNAV_CONFIG, /etc/mimnav/mimnav.toml if it exists,
+    /// else config/mimnav.toml in the current folder if it exists, else built-in defaults].
+    #[arg(long, global = true, env = "MIMNAV_CONFIG")]
+    config: Option<PathBuf>,
+    /// Override one config key, e.g. --set velodyne.rpm=900 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE", global = true)]
+    set: Vec<String>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Replay a VLP-16 capture through the driver (started as its own process) and print every
+    /// revolution it publishes: point count, return-mode mix, rate.
+    Replay(replay::ReplayArgs),
+    /// Check the config file and print the settings in force.
+    CheckConfig,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let config_path = cli.config.clone().or_else(|| {
+        let etc = PathBuf::from(mimnav_shared::config::DEFAULT_CONFIG_PATH);
+        let local = PathBuf::from("config/mimnav.toml");
+        if etc.exists() {
+            Some(etc)
+        } else if local.exists() {
+            Some(local)
+        } else {
+            None
+        }
+    });
+    let config = match Config::resolve(config_path.as_deref(), &cli.set) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("mimnav: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    mimnav_shared::logging::init(&std::env::var("MIMNAV_LOG").unwrap_or_else(|_| "warn".into()));
+    let result = match &cli.command {
+        Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
+        Command::CheckConfig => {
+            println!(
+                "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",
+                if config.from_file() {
+                    config.path.display().to_string()
+                } else {
+                    "built-in defaults".into()
+                },
+                config.robot,
+                config.velodyne,
+                config.iceoryx2.global.root_path(),
+                config.iceoryx2.global.prefix
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("mimnav: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -1,1 +1,497 @@
-fn main() {}
+//! `mimnav-velodyne`: the VLP-16 driver service.
+//!
+//! Wiring only: config → iceoryx2 topics → a loop that takes datagrams from a UDP socket or a
+//! capture, hands them to the library's [`Assembler`] and publishes each revolution on
+//! `lidar/points` and `lidar/scan2d`. SIGTERM or SIGINT ends the loop cleanly.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use iceoryx2::prelude::*;
+use mimnav_shared::config::{Config, ScanReturnConfig, VelodyneInput, toml_quote};
+use mimnav_shared::faults::Faults;
+use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, Svc, ValuePublisher};
+use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
+use mimnav_velodyne::capture::CaptureReader;
+use mimnav_velodyne::decode::{DecoderConfig, ScanReturnSelect};
+use mimnav_velodyne::packet::{POSITION_PACKET_LEN, PositionPacket, PpsStatus};
+use mimnav_velodyne::replay::Pacer;
+use mimnav_velodyne::revolution::{
+    Assembler, AssemblerConfig, Revolution, max_points_per_revolution, max_scan_len,
+};
+use mimnav_velodyne::udp::{Port, UdpConfig, UdpSource};
+
+/// The VLP-16 driver: decodes a live sensor (UDP) or replays a capture, and publishes
+/// revolutions on lidar/points and lidar/scan2d.
+#[derive(Debug, Parser)]
+#[command(name = "mimnav-velodyne", version)]
+struct Args {
+    /// The stack's config file [default: /etc/mimnav/mimnav.toml if it exists, else built-in
+    /// defaults].
+    #[arg(long, env = "MIMNAV_CONFIG")]
+    config: Option<PathBuf>,
+    /// Override one config key, e.g. --set velodyne.rpm=900 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Replay this capture instead of listening on UDP (sets velodyne.input = "pcap").
+    #[arg(long, value_name = "FILE")]
+    pcap: Option<PathBuf>,
+    /// Check the config, print the settings in force and exit.
+    #[arg(long)]
+    check_config: bool,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let mut set = args.set.clone();
+    if let Some(p) = &args.pcap {
+        set.push("velodyne.input=\"pcap\"".into());
+        set.push(format!(
+            "velodyne.pcap={}",
+            toml_quote(&p.display().to_string())
+        ));
+    }
+    let config = match Config::resolve(args.config.as_deref(), &set) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("mimnav-velodyne: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if args.check_config {
+        println!("{:#?}", config.velodyne);
+        return ExitCode::SUCCESS;
+    }
+    mimnav_shared::logging::init(&config.log.level);
+    if !config.from_file() {
+        tracing::info!("no config file: running on the built-in defaults");
+    }
+    match run(&config) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{e:#}");
+            eprintln!("mimnav-velodyne: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Capacity of the published payloads, from the sensor's rotation rate.
+fn assembler_config(config: &Config) -> AssemblerConfig {
+    let v = &config.velodyne;
+    // a revolution may last up to 1.5 turns before it is cut (a gap in the stream)
+    let max_duration_s = 1.5 * 60.0 / v.rpm;
+    AssemblerConfig {
+        decoder: DecoderConfig {
+            min_range_m: v.min_range_m as f32,
+            max_range_m: v.max_range_m as f32,
+            accept_product_0x21: v.accept_product_0x21,
+            scan_laser: Some(v.scan_laser),
+            scan_return: match v.scan_return {
+                ScanReturnConfig::Strongest => ScanReturnSelect::Strongest,
+                ScanReturnConfig::Last => ScanReturnSelect::Last,
+            },
+        },
+        cut_azimuth_cdeg: v
+            .cut_azimuth_deg
+            .map(|d| (d * 100.0).round() as u16 % 36000),
+        max_duration_ns: (max_duration_s * 1e9) as u64,
+        max_points: max_points_per_revolution(v.rpm, max_duration_s),
+    }
+}
+
+/// The driver's state between datagrams.
+struct Driver {
+    assembler: Assembler,
+    points: PointsPublisher,
+    scan: ScanPublisher,
+    packets: Option<ValuePublisher<RawPacket>>,
+    faults: Faults,
+    stats: Stats,
+    pps: Option<PpsStatus>,
+    accept_0x21_logged: bool,
+    data_port: u16,
+    position_port: u16,
+}
+
+#[derive(Default)]
+struct Stats {
+    data_packets: u64,
+    position_packets: u64,
+    other_traffic: u64,
+    revolutions: u64,
+    points: u64,
+    last_report: Option<Instant>,
+    revolutions_at_report: u64,
+    points_at_report: u64,
+    packets_at_report: u64,
+}
+
+impl Driver {
+    fn new(config: &Config, node: &Node<Svc>) -> Result<Self> {
+        let asm = assembler_config(config);
+        let v = &config.velodyne;
+        let max_duration_s = asm.max_duration_ns as f64 * 1e-9;
+        let points = ipc::points_publisher(node, asm.max_points)?;
+        let scan = ipc::scan_publisher(node, max_scan_len(v.rpm, max_duration_s))?;
+        let packets = if v.publish_packets {
+            Some(ipc::packets_publisher(node)?)
+        } else {
+            None
+        };
+        tracing::info!(
+            max_points = asm.max_points,
+            cut_azimuth_deg = ?v.cut_azimuth_deg,
+            rpm = v.rpm,
+            "topics open: {}, {}{}",
+            mimnav_shared::topics::LIDAR_POINTS,
+            mimnav_shared::topics::LIDAR_SCAN2D,
+            if packets.is_some() { ", mimnav/lidar/packets" } else { "" }
+        );
+        Ok(Driver {
+            assembler: Assembler::new(asm),
+            points,
+            scan,
+            packets,
+            faults: Faults::new(Duration::from_secs(5)),
+            stats: Stats::default(),
+            pps: None,
+            accept_0x21_logged: false,
+            data_port: v.data_port,
+            position_port: v.position_port,
+        })
+    }
+
+    /// One datagram from `source` (an address or a file offset, for messages).
+    fn on_datagram(
+        &mut self,
+        bytes: &[u8],
+        is_position: bool,
+        host_ns: u64,
+        now: Instant,
+        source: &dyn Fn() -> String,
+    ) {
+        if is_position {
+            self.on_position(bytes, now, source);
+            return;
+        }
+        let mono = ipc::monotonic_ns();
+        if let Some(p) = &self.packets {
+            if bytes.len() == DATA_PACKET_LEN {
+                let mut raw = RawPacket {
+                    seq: self.stats.data_packets,
+                    host_ns,
+                    rx_mono_ns: mono,
+                    len: bytes.len() as u32,
+                    port: self.data_port,
+                    ..RawPacket::default()
+                };
+                raw.data.copy_from_slice(bytes);
+                if let Err(e) = p.publish(raw) {
+                    self.faults.record("publish_failed", now, e);
+                }
+            }
+        }
+        match self.assembler.push(bytes, host_ns, mono) {
+            Ok(done) => {
+                self.stats.data_packets += 1;
+                if !self.accept_0x21_logged && bytes.get(1205) == Some(&0x21) {
+                    self.accept_0x21_logged = true;
+                    tracing::info!(
+                        "product byte 0x21 (HDL-32E) accepted as a VLP-16 because \
+                         velodyne.accept_product_0x21 = true (early VLP-16 firmware)"
+                    );
+                }
+                if let Some(rev) = done {
+                    publish(
+                        &self.points,
+                        &self.scan,
+                        rev,
+                        &mut self.faults,
+                        &mut self.stats,
+                        now,
+                    );
+                }
+            }
+            Err(e) => {
+                self.faults
+                    .record(e.kind(), now, format_args!("{}: {e}", source()));
+            }
+        }
+    }
+
+    fn on_position(&mut self, bytes: &[u8], now: Instant, source: &dyn Fn() -> String) {
+        match PositionPacket::parse(bytes) {
+            Ok(p) => {
+                self.stats.position_packets += 1;
+                if self.pps != Some(p.pps) {
+                    tracing::info!(
+                        pps = ?p.pps,
+                        gprmc_unix_s = ?p.gprmc_unix_s(),
+                        "position packet: PPS {:?}, NMEA {:?}",
+                        p.pps,
+                        p.nmea
+                    );
+                    self.pps = Some(p.pps);
+                }
+            }
+            Err(e) => {
+                self.faults.record(
+                    "bad_position_packet",
+                    now,
+                    format_args!("{}: {e}", source()),
+                );
+            }
+        }
+    }
+
+    /// Flushes the partial revolution at the end of a capture.
+    fn finish(&mut self, now: Instant) {
+        if let Some(rev) = self.assembler.finish() {
+            publish(
+                &self.points,
+                &self.scan,
+                rev,
+                &mut self.faults,
+                &mut self.stats,
+                now,
+            );
+        }
+    }
+
+    fn report_if_due(&mut self, now: Instant, interval: Duration) {
+        let last = *self.stats.last_report.get_or_insert(now);
+        let dt = now.saturating_duration_since(last);
+        if dt < interval {
+            return;
+        }
+        let s = &mut self.stats;
+        let secs = dt.as_secs_f64().max(1e-9);
+        tracing::info!(
+            packets = s.data_packets,
+            revolutions = s.revolutions,
+            "{:.1} revolutions/s, {:.0} points/s, {:.0} packets/s; position packets {}; \
+             other traffic {}; faults: {}",
+            (s.revolutions - s.revolutions_at_report) as f64 / secs,
+            (s.points - s.points_at_report) as f64 / secs,
+            (s.data_packets - s.packets_at_report) as f64 / secs,
+            s.position_packets,
+            s.other_traffic,
+            self.faults.summary()
+        );
+        s.last_report = Some(now);
+        s.revolutions_at_report = s.revolutions;
+        s.points_at_report = s.points;
+        s.packets_at_report = s.data_packets;
+    }
+}
+
+fn publish(
+    points: &PointsPublisher,
+    scan: &ScanPublisher,
+    rev: &Revolution,
+    faults: &mut Faults,
+    stats: &mut Stats,
+    now: Instant,
+) {
+    stats.revolutions += 1;
+    stats.points += rev.points.len() as u64;
+    if let Err(e) = points.publish(rev.header, &rev.points) {
+        faults.record("publish_failed", now, e);
+    }
+    if let Err(e) = scan.publish(rev.scan_header, &rev.scan) {
+        faults.record("publish_failed", now, e);
+    }
+    tracing::debug!(
+        seq = rev.header.seq,
+        points = rev.header.point_count,
+        packets = rev.header.packet_count,
+        cut = rev.header.cut_reason,
+        "revolution"
+    );
+}
+
+fn run(config: &Config) -> Result<()> {
+    let node = ipc::node(config, "velodyne")?;
+    let mut driver = Driver::new(config, &node)?;
+    match config.velodyne.input {
+        VelodyneInput::Udp => run_udp(config, &node, &mut driver),
+        VelodyneInput::Pcap => run_replay(config, &node, &mut driver),
+    }
+}
+
+/// A socket's descriptor, so the WaitSet can wait on it beside iceoryx2's own events.
+#[derive(Debug)]
+struct SocketFd(FileDescriptor);
+
+impl FileDescriptorBased for SocketFd {
+    fn file_descriptor(&self) -> &FileDescriptor {
+        &self.0
+    }
+}
+
+impl SynchronousMultiplexing for SocketFd {}
+
+fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()> {
+    let v = &config.velodyne;
+    let udp = UdpConfig {
+        bind_address: v.bind_address,
+        data_port: v.data_port,
+        position_port: (v.position_port != 0).then_some(v.position_port),
+        allowed_source: v.allowed_source,
+    };
+    let mut source = UdpSource::bind(&udp).with_context(|| {
+        format!(
+            "cannot bind UDP {}:{} / {}",
+            v.bind_address, v.data_port, v.position_port
+        )
+    })?;
+    tracing::info!(
+        data = %source.data_addr().map(|a| a.to_string()).unwrap_or_default(),
+        position_port = v.position_port,
+        allowed_source = ?v.allowed_source,
+        "listening for VLP-16 datagrams"
+    );
+    let fds: Vec<SocketFd> = source
+        .fds()
+        .into_iter()
+        .filter_map(|fd| FileDescriptor::non_owning_new(fd).map(SocketFd))
+        .collect();
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<Svc>()
+        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
+    let mut guards = Vec::new();
+    for fd in &fds {
+        guards.push(
+            waitset
+                .attach_notification(fd)
+                .map_err(|e| anyhow::anyhow!("cannot wait on the UDP socket: {e:?}"))?,
+        );
+    }
+    let interval = Duration::from_secs_f64(v.stats_interval_s);
+    let _tick = waitset
+        .attach_interval(interval)
+        .map_err(|e| anyhow::anyhow!("cannot attach the statistics interval: {e:?}"))?;
+    let mut buf = vec![0u8; 2048];
+    let mut io_error_logged = false;
+    let result = waitset.wait_and_process(|_id| {
+        let now = Instant::now();
+        loop {
+            match source.recv(&mut buf) {
+                Ok(Some(r)) => {
+                    let host_ns = ipc::realtime_ns();
+                    let from = r.from;
+                    let is_position = r.port == Port::Position;
+                    driver.on_datagram(&buf[..r.len], is_position, host_ns, now, &|| {
+                        format!("datagram from {from}")
+                    });
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    if !io_error_logged {
+                        tracing::warn!("UDP receive failed: {e}");
+                        io_error_logged = true;
+                    }
+                    driver.faults.record("udp_receive_failed", now, &e);
+                    break;
+                }
+            }
+        }
+        driver.report_if_due(now, interval);
+        CallbackProgression::Continue
+    });
+    let _ = source.rejected();
+    match result {
+        Ok(r) => tracing::info!(?r, "stopping"),
+        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
+    }
+    Ok(())
+}
+
+fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<()> {
+    let v = &config.velodyne;
+    let path = v.pcap.clone().context("velodyne.pcap is not set")?;
+    let speed = if v.replay_fast {
+        None
+    } else {
+        Some(v.replay_speed)
+    };
+    let mut pacer = Pacer::new(speed, (v.replay_max_gap_s * 1e9) as u64);
+    let interval = Duration::from_secs_f64(v.stats_interval_s);
+    let mut outcome: Result<()> = Ok(());
+    let mut stopped = false;
+    'passes: loop {
+        let mut reader = CaptureReader::open(&path)?;
+        tracing::info!(
+            file = %path.display(),
+            bytes = reader.file_len(),
+            speed = ?speed,
+            "replaying capture"
+        );
+        pacer.restart();
+        loop {
+            let datagram = match reader.next() {
+                Ok(Some(d)) => d,
+                Ok(None) => break,
+                Err(e) => {
+                    outcome = Err(anyhow::Error::new(e).context("replay ended early"));
+                    break 'passes;
+                }
+            };
+            let now = Instant::now();
+            let due = pacer.due(datagram.ts_ns, now);
+            if due > now && node.wait(due - now).is_err() {
+                stopped = true;
+                break 'passes;
+            }
+            let len = datagram.payload.len();
+            let port = datagram.dst_port;
+            let is_position = len == POSITION_PACKET_LEN
+                || port == driver.position_port && len != DATA_PACKET_LEN;
+            if len != DATA_PACKET_LEN && !is_position && port != driver.data_port {
+                driver.stats.other_traffic += 1;
+                continue;
+            }
+            let offset = datagram.offset;
+            let shown = path.display();
+            driver.on_datagram(datagram.payload, is_position, datagram.ts_ns, now, &|| {
+                format!("{shown} byte offset {offset}")
+            });
+            driver.report_if_due(now, interval);
+        }
+        driver.finish(Instant::now());
+        for (kind, n) in reader.skipped() {
+            tracing::info!(kind, count = n, "frames without a UDP datagram passed over");
+        }
+        if !v.replay_loop {
+            break;
+        }
+        if node.wait(Duration::ZERO).is_err() {
+            stopped = true;
+            break;
+        }
+    }
+    driver.finish(Instant::now());
+    let s = &driver.stats;
+    tracing::info!(
+        revolutions = s.revolutions,
+        points = s.points,
+        data_packets = s.data_packets,
+        position_packets = s.position_packets,
+        other_traffic = s.other_traffic,
+        faults = %driver.faults.summary(),
+        "replay finished{}",
+        if stopped { " (stopped by signal)" } else { "" }
+    );
+    driver.points.end_of_stream()?;
+    driver.scan.end_of_stream()?;
+    if !stopped && v.replay_linger_s > 0.0 {
+        // let subscribers take the last samples before the publisher goes away
+        let _ = node.wait(Duration::from_secs_f64(v.replay_linger_s));
+    }
+    outcome
+}

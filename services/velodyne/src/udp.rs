@@ -3,7 +3,7 @@
 
 use std::io;
 use std::net::{IpAddr, SocketAddr, UdpSocket};
-use std::time::Duration;
+use std::os::fd::{AsRawFd, RawFd};
 
 /// Settings of the UDP source.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -48,11 +48,12 @@ pub struct UdpSource {
 }
 
 impl UdpSource {
-    /// Binds the sockets. `poll` is how long [`UdpSource::recv`] waits on the data socket before
-    /// returning `None`, so the caller's loop can do its housekeeping.
-    pub fn bind(config: &UdpConfig, poll: Duration) -> io::Result<Self> {
+    /// Binds the sockets, non-blocking: the caller waits for readiness on [`UdpSource::fds`]
+    /// (the service attaches them to its WaitSet) and then drains them with
+    /// [`UdpSource::recv`].
+    pub fn bind(config: &UdpConfig) -> io::Result<Self> {
         let data = UdpSocket::bind((config.bind_address, config.data_port))?;
-        data.set_read_timeout(Some(poll.max(Duration::from_millis(1))))?;
+        data.set_nonblocking(true)?;
         let position = match config.position_port {
             Some(p) => {
                 let s = UdpSocket::bind((config.bind_address, p))?;
@@ -79,13 +80,22 @@ impl UdpSource {
         self.position.as_ref().map(|s| s.local_addr())
     }
 
+    /// The file descriptors to wait on: the data socket, then the position socket if any.
+    pub fn fds(&self) -> Vec<RawFd> {
+        let mut v = vec![self.data.as_raw_fd()];
+        if let Some(p) = &self.position {
+            v.push(p.as_raw_fd());
+        }
+        v
+    }
+
     /// Datagrams dropped because they came from a sender other than the allowed one.
     pub fn rejected(&self) -> u64 {
         self.rejected
     }
 
-    /// Receives the next datagram into `buf`: a waiting position packet first, else a data
-    /// packet, waiting up to the poll time. `Ok(None)` when nothing came. Datagrams larger than
+    /// Receives the next waiting datagram into `buf`: a position packet first, else a data
+    /// packet. `Ok(None)` when none is waiting. Datagrams larger than
     /// `buf` are truncated by the OS; the returned length then equals `buf.len()` and the
     /// decoder rejects it by size.
     pub fn recv(&mut self, buf: &mut [u8]) -> io::Result<Option<Received>> {
@@ -152,13 +162,13 @@ mod tests {
             position_port: Some(0),
             allowed_source: Some(IpAddr::from([127, 0, 0, 1])),
         };
-        let mut src = UdpSource::bind(&cfg, Duration::from_millis(200)).expect("bind");
+        let mut src = UdpSource::bind(&cfg).expect("bind");
         let data_addr = src.data_addr().expect("addr");
         let pos_addr = src.position_addr().expect("pos").expect("addr");
         let tx = UdpSocket::bind("127.0.0.1:0").expect("tx");
         tx.send_to(&[1u8; 1206], data_addr).expect("send");
         tx.send_to(&[2u8; 512], pos_addr).expect("send");
-        std::thread::sleep(Duration::from_millis(20));
+        std::thread::sleep(std::time::Duration::from_millis(20));
         let mut buf = [0u8; 2048];
         let a = src.recv(&mut buf).expect("recv").expect("datagram");
         assert_eq!((a.port, a.len), (Port::Position, 512));
@@ -170,6 +180,7 @@ mod tests {
         let other = UdpSocket::bind("127.0.0.2:0");
         if let Ok(other) = other {
             other.send_to(&[1u8; 1206], data_addr).expect("send");
+            std::thread::sleep(std::time::Duration::from_millis(20));
             assert_eq!(src.recv(&mut buf).expect("recv"), None);
             assert_eq!(src.rejected(), 1);
         }

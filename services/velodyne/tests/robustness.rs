@@ -18,7 +18,10 @@ use proptest::prelude::*;
 type Blocks = [(u16, [(u16, u8); CHANNELS]); BLOCKS];
 
 fn blocks_strategy() -> impl Strategy<Value = Blocks> {
-    let block = (0u16..36000, prop::array::uniform32((0u16..=u16::MAX, any::<u8>())));
+    let block = (
+        0u16..36000,
+        prop::array::uniform32((0u16..=u16::MAX, any::<u8>())),
+    );
     prop::array::uniform12(block)
 }
 
@@ -32,7 +35,13 @@ fn write_capture(path: &std::path::Path, payloads: &[Vec<u8>]) {
     let src = (Ipv4Addr::new(192, 168, 1, 201), 2368);
     let dst = (Ipv4Addr::new(255, 255, 255, 255), 2368);
     for (i, p) in payloads.iter().enumerate() {
-        w.write(1_700_000_000_000_000_000 + i as u64 * 1_327_000, src, dst, p).expect("write");
+        w.write(
+            1_700_000_000_000_000_000 + i as u64 * 1_327_000,
+            src,
+            dst,
+            p,
+        )
+        .expect("write");
     }
     w.into_inner().flush().expect("flush");
 }
@@ -151,12 +160,17 @@ fn truncated_capture_names_the_record() {
 
 #[test]
 fn missing_and_foreign_files_are_named() {
-    let e = CaptureReader::open(std::path::Path::new("/nonexistent/x.pcap")).err().expect("missing");
+    let e = CaptureReader::open(std::path::Path::new("/nonexistent/x.pcap"))
+        .err()
+        .expect("missing");
     assert!(e.to_string().contains("/nonexistent/x.pcap"), "{e}");
     let path = temp_path("text.pcap");
     std::fs::write(&path, "this is not a capture at all, just text\n").expect("write");
     let e = CaptureReader::open(&path).err().expect("not a capture");
-    assert!(e.to_string().contains("not a pcap or pcapng capture"), "{e}");
+    assert!(
+        e.to_string().contains("not a pcap or pcapng capture"),
+        "{e}"
+    );
     std::fs::remove_file(&path).ok();
 }
 
@@ -183,12 +197,24 @@ fn dual_pairs_follow_the_sensor_rules() {
     asm.push(&bytes, 0, 0).expect("valid");
     let rev = asm.finish().expect("partial revolution");
     let h = rev.header;
-    assert_eq!((h.both_count, h.last_count, h.strongest_count), (32, 64, 32));
+    assert_eq!(
+        (h.both_count, h.last_count, h.strongest_count),
+        (32, 64, 32)
+    );
     let p = &rev.points;
     assert_eq!(p[0].return_type, return_type::BOTH);
-    assert_eq!((p[32].return_type, p[32].distance_raw), (return_type::LAST, 2000));
-    assert_eq!((p[33].return_type, p[33].distance_raw), (return_type::STRONGEST, 1500));
-    assert_eq!((p[96].return_type, p[96].distance_raw), (return_type::LAST, 800));
+    assert_eq!(
+        (p[32].return_type, p[32].distance_raw),
+        (return_type::LAST, 2000)
+    );
+    assert_eq!(
+        (p[33].return_type, p[33].distance_raw),
+        (return_type::STRONGEST, 1500)
+    );
+    assert_eq!(
+        (p[96].return_type, p[96].distance_raw),
+        (return_type::LAST, 800)
+    );
     // the scan takes the strongest by default: pair 2 has none
     let scan = &rev.scan;
     assert_eq!(scan.len(), 12);
@@ -201,7 +227,10 @@ fn dual_pairs_follow_the_sensor_rules() {
 #[test]
 fn revolutions_are_cut_at_the_configured_azimuth() {
     // single-return stream at 600 rpm: 0.2° per block, 2.4° per packet
-    let mut cfg = AssemblerConfig { cut_azimuth_cdeg: Some(9000), ..AssemblerConfig::default() };
+    let mut cfg = AssemblerConfig {
+        cut_azimuth_cdeg: Some(9000),
+        ..AssemblerConfig::default()
+    };
     cfg.max_duration_ns = 1_000_000_000;
     let mut asm = Assembler::new(cfg);
     let mut cuts = Vec::new();
@@ -213,7 +242,11 @@ fn revolutions_are_cut_at_the_configured_azimuth() {
         let bytes = encode_data_packet(k * 1327, return_mode::STRONGEST, 0x22, &blocks);
         let host = 1_700_000_000_000_000_000 + u64::from(k) * 1_327_000;
         if let Some(rev) = asm.push(&bytes, host, 0).expect("valid") {
-            cuts.push((k, rev.header.packet_count, rev.points.last().map(|p| p.azimuth_cdeg)));
+            cuts.push((
+                k,
+                rev.header.packet_count,
+                rev.points.last().map(|p| p.azimuth_cdeg),
+            ));
         }
     }
     // the stream starts at 0°: the first revolution is the partial one up to 90°, then every
@@ -236,12 +269,24 @@ fn gaps_and_mode_changes_cut_early() {
     let b = encode_data_packet(1327, return_mode::DUAL, 0x22, &blocks);
     let c = encode_data_packet(2_000_000, return_mode::DUAL, 0x22, &blocks);
     assert!(asm.push(&a, 0, 0).expect("a").is_none());
-    let r = asm.push(&b, 1_327_000, 0).expect("b").expect("mode change cuts");
-    assert_eq!((r.header.cut_reason, r.header.packet_count), (cut_reason::MODE_CHANGE, 1));
-    let r = asm.push(&c, 2_000_000_000, 0).expect("c").expect("a 2 s gap cuts");
+    let r = asm
+        .push(&b, 1_327_000, 0)
+        .expect("b")
+        .expect("mode change cuts");
+    assert_eq!(
+        (r.header.cut_reason, r.header.packet_count),
+        (cut_reason::MODE_CHANGE, 1)
+    );
+    let r = asm
+        .push(&c, 2_000_000_000, 0)
+        .expect("c")
+        .expect("a 2 s gap cuts");
     assert_eq!(r.header.cut_reason, cut_reason::DURATION);
     let r = asm.finish().expect("the last packet");
-    assert_eq!((r.header.cut_reason, r.header.seq), (cut_reason::END_OF_STREAM, 2));
+    assert_eq!(
+        (r.header.cut_reason, r.header.seq),
+        (cut_reason::END_OF_STREAM, 2)
+    );
 }
 
 #[test]

@@ -1,0 +1,562 @@
+//! Opening the project's topics with the project's settings.
+//!
+//! Every topic is a publish-subscribe service paired with an event service of the same name:
+//! publishers notify after sending, receivers block in a [`WaitSet`](iceoryx2::prelude::WaitSet)
+//! on the [`Listener`] instead of polling. One function per topic opens it, so every process
+//! agrees on the quality of service (the first creator fixes it; a later opener that asks for
+//! more fails).
+//!
+//! Quality of service, the same for every topic unless noted:
+//! - safe overflow on: a slow subscriber loses its oldest sample, a publisher never blocks;
+//! - no history: a late subscriber starts with the next sample;
+//! - slice payloads are allocated statically at their worst-case length, fixed at start-up from
+//!   the config (see the README's topic table);
+//! - the subscriber buffer holds [`SLICE_BUFFER`] samples for large slice topics and
+//!   [`SMALL_BUFFER`] for fixed-size ones.
+
+use std::fmt::Debug;
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use crate::config::Config;
+use crate::topics::{self, EVENT_END_OF_STREAM, EVENT_NEW_DATA};
+
+/// The service variant every process uses: inter-process.
+pub type Svc = ipc::Service;
+
+/// Most publishers of one topic (the producing service plus, say, a replay tool).
+pub const MAX_PUBLISHERS: usize = 2;
+/// Most subscribers of one topic.
+pub const MAX_SUBSCRIBERS: usize = 6;
+/// Most nodes that may open one topic.
+pub const MAX_NODES: usize = 12;
+/// Subscriber buffer of the large slice topics (revolutions, maps).
+pub const SLICE_BUFFER: usize = 2;
+/// Subscriber buffer of fixed-size topics (raw packets, commands).
+pub const SMALL_BUFFER: usize = 64;
+
+/// Why a topic could not be opened or used.
+#[derive(Debug, thiserror::Error)]
+pub enum IpcError {
+    /// The iceoryx2 node could not be created (root path not writable, …).
+    #[error("cannot create the iceoryx2 node `{name}`: {detail}")]
+    Node {
+        /// Node name.
+        name: String,
+        /// What iceoryx2 said.
+        detail: String,
+    },
+    /// A service could not be opened or created, or a port could not be made on it.
+    #[error("topic `{topic}`: {detail}")]
+    Topic {
+        /// Topic name.
+        topic: &'static str,
+        /// What iceoryx2 said.
+        detail: String,
+    },
+    /// A sample could not be loaned or sent.
+    #[error("topic `{topic}`: cannot publish: {detail}")]
+    Publish {
+        /// Topic name.
+        topic: &'static str,
+        /// What iceoryx2 said.
+        detail: String,
+    },
+    /// More elements than the topic's static capacity.
+    #[error("topic `{topic}`: {len} elements exceed the capacity of {capacity}")]
+    Capacity {
+        /// Topic name.
+        topic: &'static str,
+        /// Elements offered.
+        len: usize,
+        /// Capacity fixed at start-up.
+        capacity: usize,
+    },
+}
+
+fn topic_err(topic: &'static str, e: impl Debug) -> IpcError {
+    IpcError::Topic {
+        topic,
+        detail: format!("{e:?}"),
+    }
+}
+
+/// Creates this process's iceoryx2 node with the configured root path and prefix; SIGTERM and
+/// SIGINT end its waits (see [`Node::wait`] and [`WaitSet`]).
+///
+/// iceoryx2 installs its signal handler on the first wait, not when the node is created; a
+/// SIGTERM before that would kill the process outright. So this function waits once for zero
+/// time: from then on SIGTERM and SIGINT only end the loops. (iceoryx2 reports a signal once and
+/// then clears it: callers must remember that they were asked to stop.)
+pub fn node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {
+    let node = create_node(config, name)?;
+    let _ = node.wait(core::time::Duration::ZERO);
+    Ok(node)
+}
+
+fn create_node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {
+    let node_err = |detail: String| IpcError::Node {
+        name: name.to_string(),
+        detail,
+    };
+    let node_name: NodeName = name
+        .try_into()
+        .map_err(|e| node_err(format!("bad name: {e:?}")))?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .config(&config.iceoryx2)
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<Svc>()
+        .map_err(|e| {
+            node_err(format!(
+                "{e:?} (root path {})",
+                config.iceoryx2.global.root_path()
+            ))
+        })
+}
+
+fn service_name(topic: &'static str) -> Result<ServiceName, IpcError> {
+    topic.try_into().map_err(|e| topic_err(topic, e))
+}
+
+fn event_service(
+    node: &Node<Svc>,
+    topic: &'static str,
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<Svc>, IpcError> {
+    node.service_builder(&service_name(topic)?)
+        .event()
+        .max_notifiers(MAX_PUBLISHERS)
+        .max_listeners(MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| topic_err(topic, e))
+}
+
+/// Publisher side of a slice topic: `[T]` payload with an `H` user header.
+#[derive(Debug)]
+pub struct SlicePublisher<
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+> {
+    topic: &'static str,
+    capacity: usize,
+    publisher: Publisher<Svc, [T], H>,
+    notifier: Notifier<Svc>,
+}
+
+impl<T, H> SlicePublisher<T, H>
+where
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+{
+    fn open(node: &Node<Svc>, topic: &'static str, capacity: usize) -> Result<Self, IpcError> {
+        let service = node
+            .service_builder(&service_name(topic)?)
+            .publish_subscribe::<[T]>()
+            .user_header::<H>()
+            .enable_safe_overflow(true)
+            .history_size(0)
+            .subscriber_max_buffer_size(SLICE_BUFFER)
+            .subscriber_max_borrowed_samples(1)
+            .max_publishers(MAX_PUBLISHERS)
+            .max_subscribers(MAX_SUBSCRIBERS)
+            .max_nodes(MAX_NODES)
+            .open_or_create()
+            .map_err(|e| topic_err(topic, e))?;
+        let publisher = service
+            .publisher_builder()
+            .initial_max_slice_len(capacity.max(1))
+            .allocation_strategy(AllocationStrategy::Static)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        let notifier = event_service(node, topic)?
+            .notifier_builder()
+            .default_event_id(EventId::new(EVENT_NEW_DATA))
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        Ok(SlicePublisher {
+            topic,
+            capacity,
+            publisher,
+            notifier,
+        })
+    }
+
+    /// The static capacity (elements).
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Copies `items` into a loaned shared-memory sample with `header`, sends it and wakes the
+    /// listeners. Returns how many subscribers received it.
+    pub fn publish(&self, header: H, items: &[T]) -> Result<usize, IpcError> {
+        if items.len() > self.capacity {
+            return Err(IpcError::Capacity {
+                topic: self.topic,
+                len: items.len(),
+                capacity: self.capacity,
+            });
+        }
+        let publish_err = |e: &dyn Debug| IpcError::Publish {
+            topic: self.topic,
+            detail: format!("{e:?}"),
+        };
+        let mut sample = self
+            .publisher
+            .loan_slice_uninit(items.len())
+            .map_err(|e| publish_err(&e))?;
+        *sample.user_header_mut() = header;
+        let sample = sample.write_from_slice(items);
+        let delivered = sample.send().map_err(|e| publish_err(&e))?;
+        self.notifier.notify().map_err(|e| publish_err(&e))?;
+        Ok(delivered)
+    }
+
+    /// Tells the listeners that this publisher's stream has ended (a replay reached the end of
+    /// its capture).
+    pub fn end_of_stream(&self) -> Result<(), IpcError> {
+        self.notifier
+            .notify_with_custom_event_id(EventId::new(EVENT_END_OF_STREAM))
+            .map(|_| ())
+            .map_err(|e| IpcError::Publish {
+                topic: self.topic,
+                detail: format!("{e:?}"),
+            })
+    }
+}
+
+/// Subscriber side of a slice topic, with the listener to block on.
+#[derive(Debug)]
+pub struct SliceSubscriber<
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+> {
+    topic: &'static str,
+    subscriber: Subscriber<Svc, [T], H>,
+    listener: Listener<Svc>,
+}
+
+/// What a listener heard since it was last asked.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Heard {
+    /// New-data notifications.
+    pub new_data: u64,
+    /// An end-of-stream notification came.
+    pub end_of_stream: bool,
+}
+
+impl<T, H> SliceSubscriber<T, H>
+where
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+{
+    fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
+        let service = node
+            .service_builder(&service_name(topic)?)
+            .publish_subscribe::<[T]>()
+            .user_header::<H>()
+            .enable_safe_overflow(true)
+            .history_size(0)
+            .subscriber_max_buffer_size(SLICE_BUFFER)
+            .subscriber_max_borrowed_samples(1)
+            .max_publishers(MAX_PUBLISHERS)
+            .max_subscribers(MAX_SUBSCRIBERS)
+            .max_nodes(MAX_NODES)
+            .open_or_create()
+            .map_err(|e| topic_err(topic, e))?;
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(SLICE_BUFFER)
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        let listener = event_service(node, topic)?
+            .listener_builder()
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        Ok(SliceSubscriber {
+            topic,
+            subscriber,
+            listener,
+        })
+    }
+
+    /// The listener to attach to a WaitSet.
+    pub fn listener(&self) -> &Listener<Svc> {
+        &self.listener
+    }
+
+    /// Drains the listener's notifications without blocking.
+    pub fn heard(&self) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener.try_wait(|a| {
+            if a.id.as_value() == EVENT_END_OF_STREAM {
+                h.end_of_stream = true;
+            } else {
+                h.new_data += a.count;
+            }
+        });
+        h
+    }
+
+    /// The next received sample, if any.
+    pub fn receive(&self) -> Result<Option<Sample<Svc, [T], H>>, IpcError> {
+        self.subscriber.receive().map_err(|e| IpcError::Topic {
+            topic: self.topic,
+            detail: format!("cannot receive: {e:?}"),
+        })
+    }
+}
+
+/// Publisher of `lidar/points`.
+pub type PointsPublisher = SlicePublisher<topics::Point, topics::PointsHeader>;
+/// Subscriber of `lidar/points`.
+pub type PointsSubscriber = SliceSubscriber<topics::Point, topics::PointsHeader>;
+/// Publisher of `lidar/scan2d`.
+pub type ScanPublisher = SlicePublisher<topics::ScanReturn, topics::ScanHeader>;
+/// Subscriber of `lidar/scan2d`.
+pub type ScanSubscriber = SliceSubscriber<topics::ScanReturn, topics::ScanHeader>;
+
+/// Opens `lidar/points` for publishing revolutions of up to `max_points` points.
+pub fn points_publisher(node: &Node<Svc>, max_points: usize) -> Result<PointsPublisher, IpcError> {
+    SlicePublisher::open(node, topics::LIDAR_POINTS, max_points)
+}
+
+/// Opens `lidar/points` for receiving.
+pub fn points_subscriber(node: &Node<Svc>) -> Result<PointsSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::LIDAR_POINTS)
+}
+
+/// Opens `lidar/scan2d` for publishing scans of up to `max_returns` returns.
+pub fn scan_publisher(node: &Node<Svc>, max_returns: usize) -> Result<ScanPublisher, IpcError> {
+    SlicePublisher::open(node, topics::LIDAR_SCAN2D, max_returns)
+}
+
+/// Opens `lidar/scan2d` for receiving.
+pub fn scan_subscriber(node: &Node<Svc>) -> Result<ScanSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::LIDAR_SCAN2D)
+}
+
+/// Publisher of a fixed-size payload topic.
+#[derive(Debug)]
+pub struct ValuePublisher<T: Debug + ZeroCopySend + Copy + 'static> {
+    topic: &'static str,
+    publisher: Publisher<Svc, T, ()>,
+    notifier: Notifier<Svc>,
+}
+
+impl<T: Debug + ZeroCopySend + Copy + 'static> ValuePublisher<T> {
+    fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
+        let service = node
+            .service_builder(&service_name(topic)?)
+            .publish_subscribe::<T>()
+            .enable_safe_overflow(true)
+            .history_size(0)
+            .subscriber_max_buffer_size(SMALL_BUFFER)
+            .subscriber_max_borrowed_samples(2)
+            .max_publishers(MAX_PUBLISHERS)
+            .max_subscribers(MAX_SUBSCRIBERS)
+            .max_nodes(MAX_NODES)
+            .open_or_create()
+            .map_err(|e| topic_err(topic, e))?;
+        let publisher = service
+            .publisher_builder()
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        let notifier = event_service(node, topic)?
+            .notifier_builder()
+            .default_event_id(EventId::new(EVENT_NEW_DATA))
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        Ok(ValuePublisher {
+            topic,
+            publisher,
+            notifier,
+        })
+    }
+
+    /// Sends a copy of `value` and wakes the listeners.
+    pub fn publish(&self, value: T) -> Result<usize, IpcError> {
+        let publish_err = |e: &dyn Debug| IpcError::Publish {
+            topic: self.topic,
+            detail: format!("{e:?}"),
+        };
+        let n = self
+            .publisher
+            .send_copy(value)
+            .map_err(|e| publish_err(&e))?;
+        self.notifier.notify().map_err(|e| publish_err(&e))?;
+        Ok(n)
+    }
+}
+
+/// Opens `lidar/packets` for publishing raw datagrams.
+pub fn packets_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::RawPacket>, IpcError> {
+    ValuePublisher::open(node, topics::LIDAR_PACKETS)
+}
+
+/// `CLOCK_MONOTONIC` now, ns: the clock every message's `rx_mono_ns` uses, comparable across the
+/// processes of one machine.
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec through the valid pointer it is given.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Wall-clock time now, ns since the Unix epoch.
+pub fn realtime_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
+
+static COUNTER: AtomicU32 = AtomicU32::new(0);
+
+/// A private iceoryx2 domain (root path and prefix) for one test or one tool run: a root path
+/// under the temp folder and a prefix, both unique to this process and call, so parallel tests,
+/// a running stack and leftovers of crashed runs never meet. iceoryx2 removes a service's files itself when the last node
+/// using it goes; when this value is dropped it also removes the location's global management
+/// segment (through iceoryx2's own API) and the root folder. Keep it alive longer than every
+/// node and process that uses it.
+#[derive(Debug)]
+pub struct PrivateDomain {
+    /// The root path (ends with `/`).
+    pub root: PathBuf,
+    /// The prefix.
+    pub prefix: String,
+}
+
+impl PrivateDomain {
+    /// A new location tagged `tag` (letters and digits).
+    pub fn new(tag: &str) -> Self {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let pid = std::process::id();
+        let root = std::env::temp_dir().join(format!("mimnav-{tag}-{pid}-{n}"));
+        PrivateDomain {
+            root,
+            prefix: format!("mt{pid}x{n}_"),
+        }
+    }
+
+    /// The root path as iceoryx2 wants it (with a trailing slash).
+    pub fn root_str(&self) -> String {
+        format!("{}/", self.root.display())
+    }
+
+    /// `config` relocated to this location.
+    pub fn apply(&self, mut config: Config) -> Config {
+        // the location is made of valid characters by construction
+        config
+            .set_iceoryx2_location(&self.root_str(), &self.prefix)
+            .unwrap_or_else(|e| panic!("isolated iceoryx2 location: {e}"));
+        config
+    }
+
+    /// The default config relocated to this location.
+    pub fn config(&self) -> Config {
+        self.apply(Config::default())
+    }
+
+    /// `--set` arguments that put a service started as a process at this location.
+    pub fn set_args(&self) -> Vec<String> {
+        vec![
+            "--set".into(),
+            format!("iceoryx2.global.root-path=\"{}\"", self.root_str()),
+            "--set".into(),
+            format!("iceoryx2.global.prefix=\"{}\"", self.prefix),
+        ]
+    }
+}
+
+impl Drop for PrivateDomain {
+    fn drop(&mut self) {
+        let config = self.config();
+        // SAFETY: the domain is private to its owner, whose nodes and processes are gone by now
+        // (the owner keeps this value alive longest).
+        let _ = unsafe {
+            iceoryx2::testing::remove_global_mgmt_segment::<iceoryx2::prelude::ipc::Service>(
+                &config.iceoryx2,
+            )
+        };
+        let _ = std::fs::remove_dir_all(&self.root);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::topics::{Point, PointsHeader};
+
+    #[test]
+    fn points_round_trip_with_end_of_stream() {
+        let loc = PrivateDomain::new("ipc");
+        let config = loc.config();
+        let node = node(&config, "ipc-test").expect("node");
+        let sub = points_subscriber(&node).expect("subscriber");
+        let publ = points_publisher(&node, 100).expect("publisher");
+        let pts: Vec<Point> = (0..10)
+            .map(|i| Point {
+                x: i as f32,
+                ..Point::default()
+            })
+            .collect();
+        let header = PointsHeader {
+            seq: 7,
+            point_count: 10,
+            ..PointsHeader::default()
+        };
+        assert_eq!(publ.publish(header, &pts).expect("publish"), 1);
+        assert!(matches!(
+            publ.publish(header, &vec![Point::default(); 101]),
+            Err(IpcError::Capacity {
+                len: 101,
+                capacity: 100,
+                ..
+            })
+        ));
+        publ.end_of_stream().expect("eos");
+        let heard = sub.heard();
+        assert_eq!(
+            heard,
+            Heard {
+                new_data: 1,
+                end_of_stream: true
+            }
+        );
+        let sample = sub.receive().expect("receive").expect("a sample");
+        assert_eq!(sample.user_header().seq, 7);
+        assert_eq!(sample.payload().len(), 10);
+        assert_eq!(sample.payload()[9].x, 9.0);
+        drop(sample);
+        assert!(sub.receive().expect("receive").is_none());
+    }
+
+    #[test]
+    fn two_locations_do_not_meet() {
+        let a = PrivateDomain::new("ipca");
+        let b = PrivateDomain::new("ipcb");
+        let na = node(&a.config(), "a").expect("node a");
+        let nb = node(&b.config(), "b").expect("node b");
+        let sub = points_subscriber(&nb).expect("subscriber");
+        let publ = points_publisher(&na, 4).expect("publisher");
+        assert_eq!(
+            publ.publish(PointsHeader::default(), &[Point::default()])
+                .expect("publish"),
+            0
+        );
+        assert!(sub.receive().expect("receive").is_none());
+    }
+}
