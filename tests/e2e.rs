@@ -1,1 +1,12 @@
+//! End-to-end tests: the real binaries run as separate processes and talk over iceoryx2.
+//!
+//! Every test has its own private iceoryx2 domain (root path and prefix), so tests run in
+//! parallel and never meet a running stack. Tests that need the real captures in
+//! `../shared/data` print a SKIP line where the folder is missing.
 
+/// The `mimnav` command line.
+mod cli;
+/// Helpers: finding the binaries, the shared data, receiving revolutions.
+mod util;
+/// The VLP-16 driver as a process: replay, UDP, bad input, config errors, SIGTERM.
+mod velodyne;

@@ -254,6 +254,16 @@ pub struct Heard {
     pub end_of_stream: bool,
 }
 
+impl Heard {
+    fn add(&mut self, a: EventActivation) {
+        if a.id.as_value() == EVENT_END_OF_STREAM {
+            self.end_of_stream = true;
+        } else {
+            self.new_data += a.count;
+        }
+    }
+}
+
 impl<T, H> SliceSubscriber<T, H>
 where
     T: Debug + ZeroCopySend + Copy + 'static,
@@ -297,13 +307,14 @@ where
     /// Drains the listener's notifications without blocking.
     pub fn heard(&self) -> Heard {
         let mut h = Heard::default();
-        let _ = self.listener.try_wait(|a| {
-            if a.id.as_value() == EVENT_END_OF_STREAM {
-                h.end_of_stream = true;
-            } else {
-                h.new_data += a.count;
-            }
-        });
+        let _ = self.listener.try_wait(|a| h.add(a));
+        h
+    }
+
+    /// Waits up to `timeout` for notifications and drains them (for loops without a WaitSet).
+    pub fn heard_within(&self, timeout: core::time::Duration) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener.timed_wait(|a| h.add(a), timeout);
         h
     }
 

@@ -116,7 +116,7 @@ pub fn run(
     sets: &[String],
     args: &ReplayArgs,
 ) -> Result<ExitCode> {
-    if !(args.speed > 0.0) {
+    if args.speed.is_nan() || args.speed <= 0.0 {
         bail!("--speed must be above 0, got {}", args.speed);
     }
     let total = count_data_packets(&args.file)?;
@@ -259,10 +259,10 @@ pub fn run(
             status.map_or_else(|| "status unknown".into(), |s| s.to_string())
         );
     }
-    if let Some(s) = status {
-        if !s.success() {
-            bail!("{} exited with {s}", driver.name());
-        }
+    if let Some(s) = status
+        && !s.success()
+    {
+        bail!("{} exited with {s}", driver.name());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -44,7 +44,7 @@ fn main() {
         ..AssemblerConfig::default()
     };
     let mut asm = Assembler::new(config);
-    let mut pass = |repeat: u64, asm: &mut Assembler| -> u64 {
+    let pass = |repeat: u64, asm: &mut Assembler| -> u64 {
         let mut points = 0u64;
         for (ts, p) in &packets {
             // shift timestamps by one capture length per pass so revolutions cut the same way

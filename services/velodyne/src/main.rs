@@ -179,20 +179,20 @@ impl Driver {
             return;
         }
         let mono = ipc::monotonic_ns();
-        if let Some(p) = &self.packets {
-            if bytes.len() == DATA_PACKET_LEN {
-                let mut raw = RawPacket {
-                    seq: self.stats.data_packets,
-                    host_ns,
-                    rx_mono_ns: mono,
-                    len: bytes.len() as u32,
-                    port: self.data_port,
-                    ..RawPacket::default()
-                };
-                raw.data.copy_from_slice(bytes);
-                if let Err(e) = p.publish(raw) {
-                    self.faults.record("publish_failed", now, e);
-                }
+        if let Some(p) = &self.packets
+            && bytes.len() == DATA_PACKET_LEN
+        {
+            let mut raw = RawPacket {
+                seq: self.stats.data_packets,
+                host_ns,
+                rx_mono_ns: mono,
+                len: bytes.len() as u32,
+                port: self.data_port,
+                ..RawPacket::default()
+            };
+            raw.data.copy_from_slice(bytes);
+            if let Err(e) = p.publish(raw) {
+                self.faults.record("publish_failed", now, e);
             }
         }
         match self.assembler.push(bytes, host_ns, mono) {
@@ -260,6 +260,20 @@ impl Driver {
                 now,
             );
         }
+    }
+
+    /// The closing line: totals and every fault counted.
+    fn log_summary(&self, what: &str) {
+        let s = &self.stats;
+        tracing::info!(
+            revolutions = s.revolutions,
+            points = s.points,
+            data_packets = s.data_packets,
+            position_packets = s.position_packets,
+            other_traffic = s.other_traffic,
+            "{what}; faults: {}",
+            self.faults.summary()
+        );
     }
 
     fn report_if_due(&mut self, now: Instant, interval: Duration) {
@@ -404,9 +418,14 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
         driver.report_if_due(now, interval);
         CallbackProgression::Continue
     });
-    let _ = source.rejected();
+    if source.rejected() > 0 {
+        tracing::info!(
+            count = source.rejected(),
+            "datagrams from other senders than velodyne.allowed_source dropped"
+        );
+    }
     match result {
-        Ok(r) => tracing::info!(?r, "stopping"),
+        Ok(r) => driver.log_summary(&format!("stopping ({r:?})")),
         Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
     }
     Ok(())
@@ -476,17 +495,11 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         }
     }
     driver.finish(Instant::now());
-    let s = &driver.stats;
-    tracing::info!(
-        revolutions = s.revolutions,
-        points = s.points,
-        data_packets = s.data_packets,
-        position_packets = s.position_packets,
-        other_traffic = s.other_traffic,
-        faults = %driver.faults.summary(),
-        "replay finished{}",
-        if stopped { " (stopped by signal)" } else { "" }
-    );
+    driver.log_summary(if stopped {
+        "replay stopped by signal"
+    } else {
+        "replay finished"
+    });
     driver.points.end_of_stream()?;
     driver.scan.end_of_stream()?;
     if !stopped && v.replay_linger_s > 0.0 {

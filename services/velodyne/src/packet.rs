@@ -50,7 +50,7 @@ pub const PUCK_HI_RES_ELEVATION_DEG: [f32; LASERS] = [
 
 /// Ring (0–15 ordered by elevation, lowest first) of a laser id; the same for both products.
 pub const fn ring_of(laser_id: usize) -> u8 {
-    if laser_id % 2 == 0 {
+    if laser_id.is_multiple_of(2) {
         (laser_id / 2) as u8
     } else {
         (8 + laser_id / 2) as u8

@@ -162,11 +162,11 @@ impl Assembler {
     ) -> Result<Option<&Revolution>, DecodeError> {
         let pkt = DataPacket::parse(bytes, self.config.decoder.accept_product_0x21)?;
         let mut completed = false;
-        if !self.cur.is_empty() {
-            if let Some(reason) = self.early_cut(&pkt, host_ns) {
-                self.complete(reason);
-                completed = true;
-            }
+        if !self.cur.is_empty()
+            && let Some(reason) = self.early_cut(&pkt, host_ns)
+        {
+            self.complete(reason);
+            completed = true;
         }
         self.add(&pkt, host_ns, rx_mono_ns);
         let az = i32::from(pkt.azimuth(BLOCKS - 1));

@@ -112,9 +112,8 @@ proptest! {
         write_capture(&path, &payloads);
         let mut bytes = std::fs::read(&path).expect("read");
         let full_len = bytes.len();
-        if let Some((at, v)) = flip {
-            if at < bytes.len() { bytes[at] ^= v | 1; }
-        }
+        if let Some((at, v)) = flip
+            && at < bytes.len() { bytes[at] ^= v | 1; }
         bytes.truncate(cut.min(full_len));
         std::fs::write(&path, &bytes).expect("write");
         let mut r = CaptureReader::open(&path).expect("header intact");

@@ -1,0 +1,156 @@
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use mimnav_shared::ipc::{self, PointsSubscriber, PrivateDomain, Svc};
+use mimnav_shared::topics::PointsHeader;
+
+/// Folder of the workspace's binaries: beside the test executable's `deps/` folder, or
+/// `MIMNAV_BIN_DIR`.
+pub fn bin_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("MIMNAV_BIN_DIR") {
+        return PathBuf::from(d);
+    }
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.parent()
+        .and_then(|d| d.parent())
+        .expect("target dir")
+        .to_path_buf()
+}
+
+/// A workspace binary; panics with the build command when it is missing.
+pub fn bin(name: &str) -> PathBuf {
+    let p = bin_dir().join(name);
+    assert!(
+        p.is_file(),
+        "{} is missing: run `cargo build --workspace` first",
+        p.display()
+    );
+    p
+}
+
+/// `../shared/data/velodyne`, or None after printing a SKIP line.
+pub fn velodyne_data(test: &str) -> Option<PathBuf> {
+    let dir = match std::env::var_os("MIMNAV_SHARED_DATA") {
+        Some(d) => PathBuf::from(d).join("velodyne"),
+        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/velodyne"),
+    };
+    if dir.join("README.md").is_file() {
+        Some(dir)
+    } else {
+        println!(
+            "SKIP {test}: no shared VLP-16 captures at {}",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// Point counts per frame from a reference `NAME.frames.csv`.
+pub fn reference_counts(dir: &std::path::Path, name: &str) -> Vec<u32> {
+    let text = std::fs::read_to_string(dir.join(format!("reference/{name}.frames.csv")))
+        .expect("frames.csv");
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .nth(1)
+                .expect("n_points")
+                .parse()
+                .expect("number")
+        })
+        .collect()
+}
+
+/// A child process killed when dropped.
+pub struct Proc(pub Child);
+
+impl Proc {
+    pub fn start(cmd: &mut Command) -> Proc {
+        Proc(cmd.stdin(Stdio::null()).spawn().expect("spawn"))
+    }
+
+    /// SIGTERM, then wait up to `within` for the exit status.
+    pub fn terminate(&mut self, within: Duration) -> Option<std::process::ExitStatus> {
+        // SAFETY: kill(2) on the pid of a child this test started and has not reaped.
+        unsafe { libc::kill(self.0.id() as libc::pid_t, libc::SIGTERM) };
+        self.wait(within)
+    }
+
+    pub fn wait(&mut self, within: Duration) -> Option<std::process::ExitStatus> {
+        let until = Instant::now() + within;
+        while Instant::now() < until {
+            if let Ok(Some(s)) = self.0.try_wait() {
+                return Some(s);
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        None
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A test's view of `lidar/points` in its private domain.
+pub struct PointsTap {
+    pub sub: PointsSubscriber,
+    _node: iceoryx2::prelude::Node<Svc>,
+}
+
+/// What a tap collected.
+#[derive(Debug, Default)]
+pub struct Collected {
+    pub headers: Vec<PointsHeader>,
+    /// Points per revolution, as received.
+    pub counts: Vec<usize>,
+    pub end_of_stream: bool,
+}
+
+impl PointsTap {
+    pub fn open(domain: &PrivateDomain) -> PointsTap {
+        let node = ipc::node(&domain.config(), "e2e-tap").expect("node");
+        let sub = ipc::points_subscriber(&node).expect("subscriber");
+        PointsTap { sub, _node: node }
+    }
+
+    /// Receives until end of stream, `stop(&collected)` says so, or `timeout`.
+    pub fn collect(
+        &self,
+        timeout: Duration,
+        mut stop: impl FnMut(&Collected) -> bool,
+    ) -> Collected {
+        let mut c = Collected::default();
+        let until = Instant::now() + timeout;
+        while Instant::now() < until {
+            let heard = self.sub.heard_within(Duration::from_millis(50));
+            while let Some(sample) = self.sub.receive().expect("receive") {
+                let h = *sample.user_header();
+                assert_eq!(
+                    h.point_count as usize,
+                    sample.payload().len(),
+                    "header matches payload"
+                );
+                c.headers.push(h);
+                c.counts.push(sample.payload().len());
+            }
+            if heard.end_of_stream {
+                c.end_of_stream = true;
+                // samples sent before the notification are already in the buffer
+                while let Some(sample) = self.sub.receive().expect("receive") {
+                    c.headers.push(*sample.user_header());
+                    c.counts.push(sample.payload().len());
+                }
+                break;
+            }
+            if stop(&c) {
+                break;
+            }
+        }
+        c
+    }
+}

@@ -1,0 +1,319 @@
+use std::io::{BufRead, BufReader, Read};
+use std::net::{Ipv4Addr, UdpSocket};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use mimnav_shared::ipc::PrivateDomain;
+use mimnav_shared::topics::cut_reason;
+use mimnav_velodyne::capture::{CaptureReader, PcapDatagramWriter};
+use mimnav_velodyne::packet::{BLOCKS, CHANNELS, encode_data_packet};
+
+use crate::util::{PointsTap, Proc, bin, reference_counts, velodyne_data};
+
+fn shipped_config() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config/mimnav.toml")
+}
+
+fn driver(domain: &PrivateDomain) -> Command {
+    let mut c = Command::new(bin("mimnav-velodyne"));
+    c.arg("--config")
+        .arg(shipped_config())
+        .args(domain.set_args());
+    c.env("MIMNAV_LOG", "info");
+    c
+}
+
+/// Forwards a child's stderr lines to a channel (and keeps them for the assertion messages).
+fn stderr_lines(p: &mut Proc) -> mpsc::Receiver<String> {
+    let (tx, rx) = mpsc::channel();
+    let err = p.0.stderr.take().expect("piped stderr");
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+fn wait_for_line(
+    rx: &mpsc::Receiver<String>,
+    needle: &str,
+    within: Duration,
+    seen: &mut Vec<String>,
+) -> bool {
+    let until = Instant::now() + within;
+    while let Some(left) = until.checked_duration_since(Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(l) => {
+                let hit = l.contains(needle);
+                seen.push(l);
+                if hit {
+                    return true;
+                }
+            }
+            Err(_) => return false,
+        }
+    }
+    false
+}
+
+#[test]
+fn replays_the_dual_capture_with_the_reference_point_counts() {
+    let Some(data) = velodyne_data("replays_the_dual_capture") else {
+        return;
+    };
+    let expected = reference_counts(&data, "vlp16_dual_nebula");
+    let domain = PrivateDomain::new("e2e-replay");
+    // subscribe first: the driver's first revolution must not be missed
+    let tap = PointsTap::open(&domain);
+    let mut p = Proc::start(
+        driver(&domain)
+            .arg("--pcap")
+            .arg(data.join("vlp16_dual_nebula.pcap"))
+            .args(["--set", "velodyne.replay_linger_s=10"]),
+    );
+    let got = tap.collect(Duration::from_secs(30), |_| false);
+    assert!(got.end_of_stream, "end of stream announced: {got:?}");
+    let counts: Vec<u32> = got.counts.iter().map(|&n| n as u32).collect();
+    assert_eq!(
+        counts, expected,
+        "every revolution, with the reference point counts"
+    );
+    let seqs: Vec<u64> = got.headers.iter().map(|h| h.seq).collect();
+    assert_eq!(seqs, (0..expected.len() as u64).collect::<Vec<_>>());
+    assert_eq!(
+        got.headers.last().map(|h| h.cut_reason),
+        Some(cut_reason::END_OF_STREAM)
+    );
+    // the driver lingers for subscribers; SIGTERM ends it cleanly within a second
+    let status = p
+        .terminate(Duration::from_secs(1))
+        .expect("exits within 1 s of SIGTERM");
+    assert!(status.success(), "{status}");
+}
+
+fn free_udp_port() -> u16 {
+    let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    s.local_addr().expect("addr").port()
+}
+
+#[test]
+fn udp_input_counts_bad_datagrams_and_keeps_going() {
+    let Some(data) = velodyne_data("udp_input_counts_bad_datagrams") else {
+        return;
+    };
+    let expected = reference_counts(&data, "vlp16_dual_nebula");
+    let domain = PrivateDomain::new("e2e-udp");
+    let tap = PointsTap::open(&domain);
+    let port = free_udp_port();
+    let mut p = Proc::start(
+        driver(&domain)
+            .args([
+                "--set",
+                "velodyne.input=\"udp\"",
+                "--set",
+                "velodyne.bind_address=\"127.0.0.1\"",
+            ])
+            .args([
+                "--set",
+                &format!("velodyne.data_port={port}"),
+                "--set",
+                "velodyne.position_port=0",
+            ])
+            .args(["--set", "velodyne.allowed_source=\"127.0.0.1\""])
+            .stderr(Stdio::piped()),
+    );
+    let rx = stderr_lines(&mut p);
+    let mut seen = Vec::new();
+    assert!(
+        wait_for_line(
+            &rx,
+            "listening for VLP-16 datagrams",
+            Duration::from_secs(10),
+            &mut seen
+        ),
+        "driver ready: {seen:#?}"
+    );
+    // the sensor's side: a thread sends the capture at about real time (a slice topic keeps
+    // only the newest revolutions for a subscriber that falls behind)
+    let capture = data.join("vlp16_dual_nebula.pcap");
+    let sender = std::thread::spawn(move || {
+        let mut reader = CaptureReader::open(&capture).expect("capture");
+        let tx = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("sender");
+        let to = (Ipv4Addr::LOCALHOST, port);
+        let mut n = 0usize;
+        while let Some(d) = reader.next().expect("capture reads") {
+            if d.payload.len() != 1206 {
+                continue;
+            }
+            tx.send_to(d.payload, to).expect("send");
+            n += 1;
+            if n == 100 {
+                tx.send_to(&[0u8; 100], to).expect("send short");
+                tx.send_to(&[0u8; 1400], to).expect("send long");
+                let mut bad = d.payload.to_vec();
+                bad[300] = 0x12; // block 3's flag
+                tx.send_to(&bad, to).expect("send bad flag");
+            }
+            if n.is_multiple_of(15) {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+    });
+    // a live stream never ends: the last, partial revolution stays pending
+    let got = tap.collect(Duration::from_secs(20), |c| {
+        c.counts.len() >= expected.len() - 1
+    });
+    sender.join().expect("sender");
+    let counts: Vec<u32> = got.counts.iter().map(|&c| c as u32).collect();
+    assert_eq!(
+        counts,
+        expected[..expected.len() - 1],
+        "the same revolutions as the replay"
+    );
+    let status = p
+        .terminate(Duration::from_secs(1))
+        .expect("exits within 1 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    while let Ok(l) = rx.recv_timeout(Duration::from_millis(500)) {
+        seen.push(l);
+    }
+    let last = seen
+        .iter()
+        .rev()
+        .find(|l| l.contains("faults:"))
+        .cloned()
+        .unwrap_or_default();
+    assert!(
+        last.contains("wrong_length=2"),
+        "two wrong-sized datagrams counted: {seen:#?}"
+    );
+    assert!(
+        last.contains("bad_block_flag=1"),
+        "one bad block flag counted: {seen:#?}"
+    );
+    assert!(
+        seen.iter()
+            .any(|l| l.contains("WARN") && l.contains("datagram of 100 bytes")),
+        "the first fault of a kind is logged with its sender: {seen:#?}"
+    );
+}
+
+fn synthetic_capture(path: &Path, packets: u32) {
+    let file = std::fs::File::create(path).expect("create");
+    let mut w = PcapDatagramWriter::new(std::io::BufWriter::new(file)).expect("header");
+    for k in 0..packets {
+        let mut blocks = [(0u16, [(1000u16, 20u8); CHANNELS]); BLOCKS];
+        for (b, blk) in blocks.iter_mut().enumerate() {
+            blk.0 = ((k * 240 + b as u32 * 20) % 36000) as u16;
+        }
+        let p = encode_data_packet(k * 1327, 0x37, 0x22, &blocks);
+        let ts = 1_700_000_000_000_000_000 + u64::from(k) * 1_327_000;
+        w.write(
+            ts,
+            (Ipv4Addr::new(192, 168, 1, 201), 2368),
+            (Ipv4Addr::BROADCAST, 2368),
+            &p,
+        )
+        .expect("write");
+    }
+    use std::io::Write;
+    w.into_inner().flush().expect("flush");
+}
+
+#[test]
+fn a_broken_capture_ends_naming_file_and_offset() {
+    let domain = PrivateDomain::new("e2e-broken");
+    let path = std::env::temp_dir().join(format!("mimnav-e2e-broken-{}.pcap", std::process::id()));
+    synthetic_capture(&path, 400);
+    let bytes = std::fs::read(&path).expect("read");
+    // cut record 350 (24-byte file header, 16 + 1248 bytes a record) in half
+    let offset = 24 + 350 * (16 + 1248);
+    std::fs::write(&path, &bytes[..offset + 600]).expect("truncate");
+    let tap = PointsTap::open(&domain);
+    let mut p = Proc::start(
+        driver(&domain)
+            .arg("--pcap")
+            .arg(&path)
+            .args([
+                "--set",
+                "velodyne.replay_fast=true",
+                "--set",
+                "velodyne.replay_linger_s=5",
+            ])
+            .stderr(Stdio::piped()),
+    );
+    let got = tap.collect(Duration::from_secs(20), |_| false);
+    assert!(
+        got.end_of_stream,
+        "the packets before the damage are published: {got:?}"
+    );
+    // 350 packets at 2.4° each: two full turns (150 each) after the first, then the rest
+    assert_eq!(got.headers.iter().map(|h| h.packet_count).sum::<u32>(), 350);
+    let status = p
+        .wait(Duration::from_secs(10))
+        .expect("exits after lingering");
+    assert_eq!(status.code(), Some(1), "a broken file is a failed replay");
+    let mut err = String::new();
+    p.0.stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut err)
+        .expect("read");
+    let shown = path.display().to_string();
+    assert!(err.contains(&shown), "names the file: {err}");
+    assert!(
+        err.contains(&format!("byte offset {offset}")),
+        "names the offset: {err}"
+    );
+    std::fs::remove_file(&path).ok();
+}
+
+#[test]
+fn a_missing_capture_is_named() {
+    let domain = PrivateDomain::new("e2e-missing");
+    let out = driver(&domain)
+        .args(["--pcap", "/nonexistent/capture.pcap"])
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/nonexistent/capture.pcap"), "{err}");
+}
+
+#[test]
+fn a_bad_config_names_file_and_key() {
+    let domain = PrivateDomain::new("e2e-config");
+    let path = std::env::temp_dir().join(format!("mimnav-e2e-config-{}.toml", std::process::id()));
+    std::fs::write(&path, "[velodyne]\nrpm = 600\nscan_lazer = 3\n").expect("write");
+    let out = Command::new(bin("mimnav-velodyne"))
+        .arg("--config")
+        .arg(&path)
+        .args(domain.set_args())
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&path.display().to_string()) && err.contains("scan_lazer"),
+        "{err}"
+    );
+    assert!(err.contains("line 3"), "{err}");
+    std::fs::write(&path, "[velodyne]\nscan_laser = 16\n").expect("write");
+    let out = Command::new(bin("mimnav-velodyne"))
+        .arg("--config")
+        .arg(&path)
+        .output()
+        .expect("run");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("velodyne.scan_laser = 16 is out of range: allowed 0 to 15"),
+        "{err}"
+    );
+    std::fs::remove_file(&path).ok();
+}
