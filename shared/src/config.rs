@@ -668,3 +668,24 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+#[cfg(test)]
+mod shipped {
+    use super::*;
+
+    /// `config/mimnav.toml` documents every key at its default: keep it true.
+    #[test]
+    fn shipped_config_holds_the_defaults() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/mimnav.toml");
+        let c = Config::load(&path, &[]).expect("shipped config loads");
+        let d = Config::default();
+        assert_eq!(c.velodyne, d.velodyne);
+        assert_eq!(c.robot, d.robot);
+        assert_eq!(c.log, d.log);
+        assert_eq!(c.iceoryx2, d.iceoryx2);
+        for profile in ["spot", "turtlebot2"] {
+            let c = Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
+            assert_eq!(c.robot.name, profile);
+        }
+    }
+}

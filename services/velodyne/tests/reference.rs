@@ -240,3 +240,22 @@ fn product_0x21_is_refused_by_default() {
 fn single_packet_matches_reference() {
     compare("vlp16_single_packet", false);
 }
+
+#[test]
+fn position_packet_capture_gives_pps_and_gprmc_time() {
+    use mimnav_velodyne::packet::{PositionPacket, PpsStatus};
+    let Some(dir) = data_dir() else { return };
+    let mut reader = CaptureReader::open(&dir.join("vlp16_position_packet.pcap")).expect("open");
+    let d = reader.next().expect("reads").expect("one datagram");
+    assert_eq!((d.dst_port, d.payload.len()), (8308, 512));
+    let p = PositionPacket::parse(d.payload).expect("position packet");
+    assert_eq!(p.pps, PpsStatus::Locked);
+    assert!(p.nmea.starts_with("$GPRMC,"), "{}", p.nmea);
+    // 2015-07-23 (the README's date for this capture)
+    let t = p.gprmc_unix_s().expect("valid GPRMC");
+    assert!((1_437_609_600.0..1_437_696_000.0).contains(&t), "{t}");
+    // the sensor's own timestamp agrees with the GPRMC time within the hour
+    let sensor_s = f64::from(p.timestamp_us) * 1e-6;
+    assert!((t.rem_euclid(3600.0) - sensor_s).abs() < 2.0, "{t} vs {sensor_s}");
+    assert!(reader.next().expect("reads").is_none());
+}
