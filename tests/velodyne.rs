@@ -96,6 +96,43 @@ fn replays_the_dual_capture_with_the_reference_point_counts() {
     assert!(status.success(), "{status}");
 }
 
+#[test]
+fn a_looped_replay_starts_over_with_the_same_revolutions() {
+    let Some(data) = velodyne_data("a_looped_replay_starts_over") else {
+        return;
+    };
+    let expected = reference_counts(&data, "vlp16_dual_nebula");
+    let domain = PrivateDomain::new("e2e-loop");
+    let tap = PointsTap::open(&domain);
+    let mut p = Proc::start(
+        driver(&domain)
+            .arg("--pcap")
+            .arg(data.join("vlp16_dual_nebula.pcap"))
+            .args([
+                "--set",
+                "velodyne.replay_loop=true",
+                "--set",
+                "velodyne.replay_speed=2.0",
+            ]),
+    );
+    let n = 2 * expected.len();
+    let got = tap.collect(Duration::from_secs(30), |c| c.counts.len() >= n);
+    let status = p
+        .terminate(Duration::from_secs(1))
+        .expect("exits within 1 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    assert!(!got.end_of_stream, "a looped replay never ends by itself");
+    let counts: Vec<u32> = got.counts.iter().take(n).map(|&c| c as u32).collect();
+    let twice: Vec<u32> = expected.iter().chain(&expected).copied().collect();
+    assert_eq!(counts, twice, "each pass gives the reference revolutions");
+    let seqs: Vec<u64> = got.headers.iter().take(n).map(|h| h.seq).collect();
+    assert_eq!(
+        seqs,
+        (0..n as u64).collect::<Vec<_>>(),
+        "sequence numbers go on across passes"
+    );
+}
+
 fn free_udp_port() -> u16 {
     let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
     s.local_addr().expect("addr").port()

@@ -684,7 +684,8 @@ mod shipped {
         assert_eq!(c.log, d.log);
         assert_eq!(c.iceoryx2, d.iceoryx2);
         for profile in ["spot", "turtlebot2"] {
-            let c = Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
+            let c =
+                Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
             assert_eq!(c.robot.name, profile);
         }
     }

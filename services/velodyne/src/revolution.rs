@@ -185,13 +185,16 @@ impl Assembler {
     }
 
     /// Ends the stream: returns the partial revolution collected since the last complete one,
-    /// if it holds any packet.
+    /// if it holds any packet. The next packet starts a new stream, cut as if the assembler were
+    /// new (sequence numbers go on).
     pub fn finish(&mut self) -> Option<&Revolution> {
-        if self.cur.is_empty() {
-            return None;
+        let done = !self.cur.is_empty();
+        if done {
+            self.complete(cut_reason::END_OF_STREAM);
         }
-        self.complete(cut_reason::END_OF_STREAM);
-        Some(&self.out)
+        self.start_azimuth = self.config.cut_azimuth_cdeg.map(i32::from);
+        self.coverage = 0;
+        done.then_some(&self.out)
     }
 
     fn early_cut(&self, pkt: &DataPacket<'_>, host_ns: u64) -> Option<u8> {

@@ -256,6 +256,9 @@ fn position_packet_capture_gives_pps_and_gprmc_time() {
     assert!((1_437_609_600.0..1_437_696_000.0).contains(&t), "{t}");
     // the sensor's own timestamp agrees with the GPRMC time within the hour
     let sensor_s = f64::from(p.timestamp_us) * 1e-6;
-    assert!((t.rem_euclid(3600.0) - sensor_s).abs() < 2.0, "{t} vs {sensor_s}");
+    assert!(
+        (t.rem_euclid(3600.0) - sensor_s).abs() < 2.0,
+        "{t} vs {sensor_s}"
+    );
     assert!(reader.next().expect("reads").is_none());
 }
