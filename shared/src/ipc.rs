@@ -140,6 +140,30 @@ fn event_service(
         .map_err(|e| topic_err(topic, e))
 }
 
+/// Opens (or creates) the publish-subscribe service of a slice topic with the project's QoS;
+/// publishers and subscribers both come through here, so they always agree.
+fn slice_service<T, H>(
+    node: &Node<Svc>,
+    topic: &'static str,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, IpcError>
+where
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+{
+    node.service_builder(&service_name(topic)?)
+        .publish_subscribe::<[T]>()
+        .user_header::<H>()
+        .enable_safe_overflow(true)
+        .history_size(0)
+        .subscriber_max_buffer_size(SLICE_BUFFER)
+        .subscriber_max_borrowed_samples(1)
+        .max_publishers(MAX_PUBLISHERS)
+        .max_subscribers(MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| topic_err(topic, e))
+}
+
 /// Publisher side of a slice topic: `[T]` payload with an `H` user header.
 #[derive(Debug)]
 pub struct SlicePublisher<
@@ -158,19 +182,7 @@ where
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
     fn open(node: &Node<Svc>, topic: &'static str, capacity: usize) -> Result<Self, IpcError> {
-        let service = node
-            .service_builder(&service_name(topic)?)
-            .publish_subscribe::<[T]>()
-            .user_header::<H>()
-            .enable_safe_overflow(true)
-            .history_size(0)
-            .subscriber_max_buffer_size(SLICE_BUFFER)
-            .subscriber_max_borrowed_samples(1)
-            .max_publishers(MAX_PUBLISHERS)
-            .max_subscribers(MAX_SUBSCRIBERS)
-            .max_nodes(MAX_NODES)
-            .open_or_create()
-            .map_err(|e| topic_err(topic, e))?;
+        let service = slice_service::<T, H>(node, topic)?;
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(capacity.max(1))
@@ -270,19 +282,7 @@ where
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
     fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
-        let service = node
-            .service_builder(&service_name(topic)?)
-            .publish_subscribe::<[T]>()
-            .user_header::<H>()
-            .enable_safe_overflow(true)
-            .history_size(0)
-            .subscriber_max_buffer_size(SLICE_BUFFER)
-            .subscriber_max_borrowed_samples(1)
-            .max_publishers(MAX_PUBLISHERS)
-            .max_subscribers(MAX_SUBSCRIBERS)
-            .max_nodes(MAX_NODES)
-            .open_or_create()
-            .map_err(|e| topic_err(topic, e))?;
+        let service = slice_service::<T, H>(node, topic)?;
         let subscriber = service
             .subscriber_builder()
             .buffer_size(SLICE_BUFFER)
