@@ -77,6 +77,54 @@ pub fn resolve_top_of_hour(us_past_hour: u32, reference_ns: u64) -> u64 {
     }
 }
 
+/// The revolution boundary rule on its own (see the module docs), for anything that must agree
+/// with the assembler on where revolutions end — the simulator cuts its lock-step chunks with it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TurnCutter {
+    cut: Option<i32>,
+    start: Option<i32>,
+    coverage: i32,
+}
+
+impl TurnCutter {
+    /// Cuts at `cut_azimuth_cdeg`, or wherever a full turn completes when `None`.
+    pub fn new(cut_azimuth_cdeg: Option<u16>) -> Self {
+        let cut = cut_azimuth_cdeg.map(i32::from);
+        TurnCutter {
+            cut,
+            start: cut,
+            coverage: 0,
+        }
+    }
+
+    /// Takes the last-block azimuth (0.01°) of a packet just added to the revolution; true when
+    /// that packet completes it (the next revolution then starts after it).
+    pub fn push(&mut self, last_block_azimuth: u16) -> bool {
+        let az = i32::from(last_block_azimuth);
+        let start = *self.start.get_or_insert(az);
+        let coverage = (az - start + 36000) % 36000;
+        let wrapped = self.coverage > 18000 && self.coverage > coverage;
+        self.coverage = coverage;
+        if wrapped {
+            self.cut_after(last_block_azimuth);
+        }
+        wrapped
+    }
+
+    /// A revolution was ended early after a packet with last-block azimuth `az`: the next one
+    /// starts there (or at the cut azimuth).
+    pub fn cut_after(&mut self, az: u16) {
+        self.start = Some(self.cut.unwrap_or(i32::from(az)));
+        self.coverage = 0;
+    }
+
+    /// The stream ended: the next packet starts afresh.
+    pub fn reset(&mut self) {
+        self.start = self.cut;
+        self.coverage = 0;
+    }
+}
+
 /// One assembled revolution: the points, the planar scan of the configured laser and their
 /// headers, ready to publish.
 #[derive(Debug, Clone, Default)]
@@ -114,8 +162,7 @@ pub struct Assembler {
     decoder: Decoder,
     cur: Revolution,
     out: Revolution,
-    start_azimuth: Option<i32>,
-    coverage: i32,
+    cutter: TurnCutter,
     next_seq: u64,
     packet_seq: u64,
 }
@@ -129,12 +176,11 @@ impl Assembler {
         let mut out = Revolution::default();
         out.points.reserve(config.max_points);
         Assembler {
-            start_azimuth: config.cut_azimuth_cdeg.map(i32::from),
+            cutter: TurnCutter::new(config.cut_azimuth_cdeg),
             config,
             decoder,
             cur,
             out,
-            coverage: 0,
             next_seq: 0,
             packet_seq: 0,
         }
@@ -169,12 +215,7 @@ impl Assembler {
             completed = true;
         }
         self.add(&pkt, host_ns, rx_mono_ns);
-        let az = i32::from(pkt.azimuth(BLOCKS - 1));
-        let start = *self.start_azimuth.get_or_insert(az);
-        let coverage = (az - start + 36000) % 36000;
-        let wrapped = self.coverage > 18000 && self.coverage > coverage;
-        self.coverage = coverage;
-        if wrapped {
+        if self.cutter.push(pkt.azimuth(BLOCKS - 1)) {
             // A packet that completes a revolution right after an early cut cannot happen: the
             // early cut resets the coverage to zero.
             debug_assert!(!completed);
@@ -192,8 +233,7 @@ impl Assembler {
         if done {
             self.complete(cut_reason::END_OF_STREAM);
         }
-        self.start_azimuth = self.config.cut_azimuth_cdeg.map(i32::from);
-        self.coverage = 0;
+        self.cutter.reset();
         done.then_some(&self.out)
     }
 
@@ -272,11 +312,10 @@ impl Assembler {
             },
             reserved: [0; 6],
         };
-        self.start_azimuth = match self.config.cut_azimuth_cdeg {
-            Some(cut) => Some(i32::from(cut)),
-            None => Some(i32::from(out.last_azimuth)),
-        };
-        self.coverage = 0;
+        if reason != cut_reason::AZIMUTH {
+            // the cutter already moved on when the azimuth wrapped
+            self.cutter.cut_after(out.last_azimuth);
+        }
     }
 }
 
