@@ -67,6 +67,10 @@ pub struct Config {
     pub iceoryx2: iceoryx2::config::Config,
     /// The VLP-16 driver.
     pub velodyne: VelodyneConfig,
+    /// The robot-centred map grid.
+    pub map: MapConfig,
+    /// The simulator.
+    pub sim: SimConfig,
 }
 
 /// The keys of the config file as written.
@@ -77,6 +81,123 @@ struct FileConfig {
     log: LogConfig,
     iceoryx2: toml::Table,
     velodyne: VelodyneConfig,
+    map: MapConfig,
+    sim: SimConfig,
+}
+
+/// The robot-centred map grid (`[map]`), shared by the mapper, the planner and the simulator's
+/// ground truth.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MapConfig {
+    /// Cells per side (n).
+    pub cells: usize,
+    /// Cell size, metres (g).
+    pub cell_m: f64,
+}
+
+impl Default for MapConfig {
+    fn default() -> Self {
+        MapConfig {
+            cells: 200,
+            cell_m: 0.05,
+        }
+    }
+}
+
+impl MapConfig {
+    /// The grid.
+    pub fn grid(&self) -> crate::grid::GridSpec {
+        crate::grid::GridSpec {
+            cells: self.cells,
+            cell_m: self.cell_m as f32,
+        }
+    }
+
+    fn validate(&self, r: &mut Ranges) {
+        r.check("map.cells", self.cells as f64, 10.0, 2000.0);
+        r.check("map.cell_m", self.cell_m, 0.01, 1.0);
+    }
+}
+
+/// Return mode the simulated sensor is set to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SimReturnMode {
+    /// Strongest return (0x37).
+    Strongest,
+    /// Last return (0x38).
+    Last,
+    /// Dual return (0x39).
+    Dual,
+}
+
+/// The simulator (`[sim]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// World file; a relative path is taken from the config file's folder.
+    pub world: PathBuf,
+    /// Seed of every random draw: the same seed gives the same bytes.
+    pub seed: u64,
+    /// The simulated sensor's return mode.
+    pub return_mode: SimReturnMode,
+    /// Where streamed packets go (data to `velodyne.data_port`, position packets to
+    /// `velodyne.position_port`); loopback only unless you mean it.
+    pub udp_target: IpAddr,
+    /// Standard deviation of the range noise of solid surfaces, metres.
+    pub range_noise_m: f64,
+    /// Standard deviation of the intensity noise, reflectivity units.
+    pub intensity_noise: f64,
+    /// Glass returns only within this angle of normal incidence, degrees.
+    pub glass_specular_deg: f64,
+    /// Lock-step: send one revolution, then wait for the stack's command before the next.
+    pub lockstep: bool,
+    /// In lock-step, how long to wait for the stack's command before going on without one, s.
+    pub lockstep_timeout_s: f64,
+    /// The goal counts as reached within this distance, metres.
+    pub goal_tolerance_m: f64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            world: PathBuf::from("worlds/scenario1_glass_wall.toml"),
+            seed: 1,
+            return_mode: SimReturnMode::Dual,
+            udp_target: IpAddr::from([127, 0, 0, 1]),
+            range_noise_m: 0.015,
+            intensity_noise: 1.5,
+            glass_specular_deg: 3.0,
+            lockstep: false,
+            lockstep_timeout_s: 5.0,
+            goal_tolerance_m: 0.3,
+        }
+    }
+}
+
+impl SimConfig {
+    fn validate(&self, r: &mut Ranges) {
+        r.check("sim.range_noise_m", self.range_noise_m, 0.0, 0.5);
+        r.check("sim.intensity_noise", self.intensity_noise, 0.0, 50.0);
+        r.check("sim.glass_specular_deg", self.glass_specular_deg, 0.1, 30.0);
+        r.check(
+            "sim.lockstep_timeout_s",
+            self.lockstep_timeout_s,
+            0.01,
+            600.0,
+        );
+        r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
+    }
+
+    /// The world file, relative paths taken from `config_dir`.
+    pub fn world_path(&self, config_dir: &Path) -> PathBuf {
+        if self.world.is_absolute() {
+            self.world.clone()
+        } else {
+            config_dir.join(&self.world)
+        }
+    }
 }
 
 /// A robot: footprint, sensor mounting and motion limits (`config/robots/NAME.toml`).
@@ -323,6 +444,8 @@ impl Default for Config {
             log: LogConfig::default(),
             iceoryx2: project_iceoryx2_defaults(),
             velodyne: VelodyneConfig::default(),
+            map: MapConfig::default(),
+            sim: SimConfig::default(),
         }
     }
 }
@@ -459,6 +582,15 @@ impl Config {
         }
     }
 
+    /// The folder relative paths in the config are taken from: the config file's, or the
+    /// current folder for the built-in defaults.
+    pub fn dir(&self) -> PathBuf {
+        match self.path.parent() {
+            Some(p) if self.from_file() && !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    }
+
     /// True when this config came from a file (not the built-in defaults).
     pub fn from_file(&self) -> bool {
         self.path.is_file()
@@ -492,10 +624,14 @@ impl Config {
             log: file.log,
             iceoryx2,
             velodyne: file.velodyne,
+            map: file.map,
+            sim: file.sim,
         };
         let mut r = Ranges(Vec::new());
         config.robot.validate(&mut r);
         config.velodyne.validate(&mut r);
+        config.map.validate(&mut r);
+        config.sim.validate(&mut r);
         if !r.0.is_empty() {
             return Err(err(&source, r.0.join("; ")));
         }
@@ -683,6 +819,8 @@ mod shipped {
         assert_eq!(c.robot, d.robot);
         assert_eq!(c.log, d.log);
         assert_eq!(c.iceoryx2, d.iceoryx2);
+        assert_eq!(c.map, d.map);
+        assert_eq!(c.sim, d.sim);
         for profile in ["spot", "turtlebot2"] {
             let c =
                 Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");

@@ -5,6 +5,7 @@
 
 pub mod config;
 pub mod faults;
+pub mod grid;
 pub mod ipc;
 pub mod logging;
 pub mod topics;

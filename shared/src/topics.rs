@@ -222,3 +222,108 @@ mod tests {
         assert_eq!(core::mem::size_of::<ScanHeader>(), 40);
     }
 }
+
+/// Topic of the planner's velocity commands: [`VelocityCommand`].
+pub const CMD_VEL: &str = "mimnav/cmd_vel";
+/// Topic of the robot's odometry: [`Odometry`].
+pub const ODOM: &str = "mimnav/odom";
+/// Topic of the simulator's ground truth: `[u8]` cell classes with a [`TruthHeader`].
+pub const SIM_TRUTH: &str = "mimnav/sim/truth";
+
+/// Status of a [`VelocityCommand`].
+pub mod command_status {
+    /// Driving towards the goal.
+    pub const DRIVING: u8 = 0;
+    /// The goal is reached: zero velocity.
+    pub const GOAL_REACHED: u8 = 1;
+    /// No feasible motion: zero velocity.
+    pub const BLOCKED: u8 = 2;
+    /// An input is older than allowed: zero velocity.
+    pub const STALE_INPUT: u8 = 3;
+    /// No goal: zero velocity.
+    pub const NO_GOAL: u8 = 4;
+}
+
+/// A velocity command for the base (REP-103: v forward, ω counter-clockwise).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/VelocityCommand/v1")]
+pub struct VelocityCommand {
+    /// Command sequence number.
+    pub seq: u64,
+    /// `CLOCK_MONOTONIC` when the command was computed, ns.
+    pub stamp_mono_ns: u64,
+    /// Sensor stamp (`stamp_ns`) of the revolution the command was computed from.
+    pub source_stamp_ns: u64,
+    /// Sequence number of the revolution the command was computed from.
+    pub source_seq: u64,
+    /// `CLOCK_MONOTONIC` time after which the base must stop if no newer command came, ns.
+    pub valid_until_mono_ns: u64,
+    /// Forward speed, m/s.
+    pub v: f32,
+    /// Turn rate, rad/s.
+    pub omega: f32,
+    /// [`command_status`].
+    pub status: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 7],
+}
+
+/// The robot's 2-D pose and velocity in the fixed odometry frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/Odometry/v1")]
+pub struct Odometry {
+    /// Sequence number.
+    pub seq: u64,
+    /// Time of the pose, ns since the Unix epoch (the sensor's clock).
+    pub stamp_ns: u64,
+    /// `CLOCK_MONOTONIC` when it was published, ns.
+    pub rx_mono_ns: u64,
+    /// Position, metres.
+    pub x: f64,
+    /// Position, metres.
+    pub y: f64,
+    /// Heading, radians counter-clockwise from x.
+    pub yaw: f64,
+    /// Forward speed, m/s.
+    pub v: f32,
+    /// Turn rate, rad/s.
+    pub omega: f32,
+}
+
+/// Class of a map cell, in ground truth and in the mapper's output.
+pub mod cell_class {
+    /// Observed and empty.
+    pub const FREE: u8 = 0;
+    /// A solid obstacle (wall, pillar, trunk, rock, bush).
+    pub const SOLID: u8 = 1;
+    /// Passable although it returns light (tall grass, string curtain).
+    pub const PASSABLE: u8 = 2;
+    /// Glass.
+    pub const GLASS: u8 = 3;
+    /// Never observed (or outside the world).
+    pub const UNKNOWN: u8 = 4;
+}
+
+/// User header of a `sim/truth` sample: the true class of every map cell around the robot.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/TruthHeader/v1")]
+pub struct TruthHeader {
+    /// Simulated revolution number.
+    pub seq: u64,
+    /// Sensor stamp of the revolution's first firing, ns since the Unix epoch (matches the
+    /// driver's `PointsHeader::stamp_ns` for the same revolution).
+    pub stamp_ns: u64,
+    /// Robot pose in the world when the revolution started.
+    pub x: f64,
+    /// Robot pose.
+    pub y: f64,
+    /// Robot heading.
+    pub yaw: f64,
+    /// Cells per side of the square grid.
+    pub cells: u32,
+    /// Cell size, metres.
+    pub cell_m: f32,
+}

@@ -1,0 +1,270 @@
+//! The mimnav scenario simulator as a library: worlds, a VLP-16 that writes genuine packets from
+//! a material model, a robot base that follows velocity commands, collisions and ground truth.
+//! No inter-process communication: `main.rs` wires it to UDP, pcap files and iceoryx2.
+//!
+//! Read it in this order: [`world`] (the TOML format and the compiled [`world::Scene`]),
+//! [`geometry`] (ray–shape intersections), [`physics`] (what a beam returns), [`lidar`] (firing
+//! times, azimuths and packets), [`motion`] (the base), [`truth`] (the true map), and [`Sim`],
+//! which runs them together one packet at a time.
+//!
+//! ```
+//! use mimnav_sim::{Sim, SimSettings, world::WorldFile};
+//! let world = WorldFile::parse(
+//!     "name = 'wall'\nstart = [0.0, 0.0, 0.0]\ngoal = [3.0, 0.0]\ntime_limit_s = 10.0\n\
+//!      [[wall]]\nfrom = [5.0, -2.0]\nto = [5.0, 2.0]\n",
+//!     "inline",
+//! ).expect("valid world");
+//! let mut sim = Sim::new(world.compile(), SimSettings::default(), 7, mimnav_sim::DEFAULT_EPOCH_NS);
+//! let step = sim.step();
+//! assert_eq!(step.data.len(), 1206);
+//! ```
+#![deny(missing_docs)]
+
+pub mod geometry;
+pub mod lidar;
+pub mod motion;
+pub mod physics;
+pub mod truth;
+pub mod world;
+
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::topics::DATA_PACKET_LEN;
+use mimnav_velodyne::packet::{BLOCKS, POSITION_PACKET_LEN};
+use mimnav_velodyne::revolution::TurnCutter;
+
+use crate::lidar::{LidarConfig, Vlp16};
+use crate::motion::{Base, Limits};
+use crate::world::Scene;
+
+/// Sensor clock start of captures, for reproducible bytes: 2026-01-01T00:00:00Z.
+pub const DEFAULT_EPOCH_NS: u64 = 1_767_225_600_000_000_000;
+
+/// A 2-D pose: position (m) and heading (rad, counter-clockwise from x).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+    /// Heading, rad.
+    pub yaw: f64,
+}
+
+/// Everything the simulation needs besides the world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimSettings {
+    /// The sensor.
+    pub lidar: LidarConfig,
+    /// The base's limits.
+    pub limits: Limits,
+    /// Robot footprint radius, m.
+    pub radius_m: f64,
+    /// The goal counts as reached within this distance, m.
+    pub goal_tolerance_m: f64,
+}
+
+impl Default for SimSettings {
+    /// A Turtlebot 2 with a dual-return VLP-16 at 600 rpm.
+    fn default() -> Self {
+        SimSettings {
+            lidar: LidarConfig::default(),
+            limits: Limits {
+                max_linear_mps: 0.5,
+                max_angular_rps: 1.5,
+                max_linear_accel: 0.6,
+                max_angular_accel: 3.0,
+            },
+            radius_m: 0.2,
+            goal_tolerance_m: 0.3,
+        }
+    }
+}
+
+/// How an episode stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Still going.
+    Running,
+    /// The robot reached the goal without contact.
+    GoalReached,
+    /// The robot touched a solid or glass object (index into the scene's objects).
+    Contact(usize),
+    /// The time limit passed.
+    Timeout,
+}
+
+/// One step of the simulation: one data packet, and a position packet once a second.
+#[derive(Debug, Clone)]
+pub struct Step {
+    /// The data packet.
+    pub data: [u8; DATA_PACKET_LEN],
+    /// Sensor time of its first firing, ns since the Unix epoch.
+    pub first_firing_ns: u64,
+    /// When the sensor sends it (after its last firing), ns since the Unix epoch.
+    pub send_ns: u64,
+    /// True when this packet completes a revolution by the driver's rule.
+    pub completes_revolution: bool,
+    /// A position packet due now, with its send time.
+    pub position: Option<([u8; POSITION_PACKET_LEN], u64)>,
+}
+
+/// A running simulation: scene, sensor, base and the episode's record.
+#[derive(Debug)]
+pub struct Sim {
+    scene: Scene,
+    settings: SimSettings,
+    lidar: Vlp16,
+    base: Base,
+    cmd: (f64, f64),
+    cutter: TurnCutter,
+    epoch_ns: u64,
+    next_position_ns: u64,
+    outcome: Outcome,
+    path_length_m: f64,
+    revolutions: u64,
+    revolution_start_ns: u64,
+    revolution_start_pose: Pose,
+}
+
+impl Sim {
+    /// A simulation of `scene` starting at the scene's start pose; the sensor's clock starts at
+    /// `epoch_ns`, and every random draw follows `seed`.
+    pub fn new(scene: Scene, settings: SimSettings, seed: u64, epoch_ns: u64) -> Self {
+        let start = Pose {
+            x: scene.start[0],
+            y: scene.start[1],
+            yaw: scene.start[2],
+        };
+        Sim {
+            lidar: Vlp16::new(settings.lidar, seed, epoch_ns),
+            base: Base::at(start),
+            scene,
+            settings,
+            cmd: (0.0, 0.0),
+            cutter: TurnCutter::new(None),
+            epoch_ns,
+            next_position_ns: epoch_ns,
+            outcome: Outcome::Running,
+            path_length_m: 0.0,
+            revolutions: 0,
+            revolution_start_ns: epoch_ns,
+            revolution_start_pose: start,
+        }
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &SimSettings {
+        &self.settings
+    }
+
+    /// The base (pose and velocity).
+    pub fn base(&self) -> &Base {
+        &self.base
+    }
+
+    /// Sets the velocity command the base follows from now on.
+    pub fn set_command(&mut self, v: f64, omega: f64) {
+        self.cmd = (v, omega);
+    }
+
+    /// Seconds of simulated time so far.
+    pub fn elapsed_s(&self) -> f64 {
+        (self.lidar.now_ns() - self.epoch_ns) as f64 * 1e-9
+    }
+
+    /// Sensor time now, ns since the Unix epoch.
+    pub fn now_ns(&self) -> u64 {
+        self.lidar.now_ns()
+    }
+
+    /// How the episode stands.
+    pub fn outcome(&self) -> Outcome {
+        self.outcome
+    }
+
+    /// Distance driven so far, m.
+    pub fn path_length_m(&self) -> f64 {
+        self.path_length_m
+    }
+
+    /// Revolutions completed so far.
+    pub fn revolutions(&self) -> u64 {
+        self.revolutions
+    }
+
+    /// Sensor time and pose at the start of the current revolution.
+    pub fn revolution_start(&self) -> (u64, Pose) {
+        (self.revolution_start_ns, self.revolution_start_pose)
+    }
+
+    /// Distance from the robot to the goal, m.
+    pub fn distance_to_goal(&self) -> f64 {
+        let p = self.base.pose;
+        (self.scene.goal[0] - p.x).hypot(self.scene.goal[1] - p.y)
+    }
+
+    /// Casts the next packet from the current pose, then moves the base for one packet period.
+    pub fn step(&mut self) -> Step {
+        let first_firing_ns = self.lidar.now_ns();
+        let data = self.lidar.next_packet(&self.scene, self.base.pose);
+        let period = self.lidar.packet_period_ns();
+        let send_ns = first_firing_ns + period;
+        let position = if first_firing_ns >= self.next_position_ns {
+            self.next_position_ns += 1_000_000_000;
+            Some((Vlp16::position_packet(first_firing_ns), send_ns))
+        } else {
+            None
+        };
+        self.advance(period as f64 * 1e-9);
+        let last_az =
+            u16::from_le_bytes([data[100 * (BLOCKS - 1) + 2], data[100 * (BLOCKS - 1) + 3]]);
+        let completes_revolution = self.cutter.push(last_az);
+        if completes_revolution {
+            self.revolutions += 1;
+            self.revolution_start_ns = self.lidar.now_ns();
+            self.revolution_start_pose = self.base.pose;
+        }
+        Step {
+            data,
+            first_firing_ns,
+            send_ns,
+            completes_revolution,
+            position,
+        }
+    }
+
+    fn advance(&mut self, dt: f64) {
+        if self.outcome != Outcome::Running {
+            self.base.v = 0.0;
+            self.base.omega = 0.0;
+            return;
+        }
+        let before = self.base;
+        self.base
+            .step(self.cmd.0, self.cmd.1, dt, &self.settings.limits);
+        let p = self.base.pose;
+        if let Some(i) = motion::contact(&self.scene, p.x, p.y, self.settings.radius_m) {
+            self.base = before;
+            self.base.v = 0.0;
+            self.base.omega = 0.0;
+            self.outcome = Outcome::Contact(i);
+            return;
+        }
+        self.path_length_m += (p.x - before.pose.x).hypot(p.y - before.pose.y);
+        if self.distance_to_goal() <= self.settings.goal_tolerance_m {
+            self.outcome = Outcome::GoalReached;
+        } else if self.elapsed_s() > self.scene.time_limit_s {
+            self.outcome = Outcome::Timeout;
+        }
+    }
+
+    /// The true class of every cell of `grid` around the current pose.
+    pub fn truth(&self, grid: GridSpec, out: &mut Vec<u8>) {
+        truth::truth_grid(&self.scene, self.base.pose, grid, out);
+    }
+}

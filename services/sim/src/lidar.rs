@@ -1,0 +1,272 @@
+//! The simulated VLP-16: all 16 lasers at their real elevations and firing times, spinning at a
+//! configured rate, writing genuine data packets (single or dual return) and position packets.
+//!
+//! Timing follows the sensor's manual (and the driver's decoder): a block (single mode) or block
+//! pair (dual mode) lasts 110.592 µs and holds two firing sequences of 55.296 µs; laser j fires
+//! 2.304 µs × j into its sequence. Every firing is cast at its own instant and azimuth; the block
+//! azimuth is the azimuth of the block's first firing. The packet timestamp is its first firing,
+//! in µs past the top of the hour.
+
+use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
+use mimnav_velodyne::packet::{
+    BLOCKS, CHANNELS, LASERS, POSITION_PACKET_LEN, VLP16_ELEVATION_DEG, encode_data_packet,
+    encode_position_packet,
+};
+
+use crate::Pose;
+use crate::physics::{BeamCaster, Echo, PhysicsParams, dual_returns, last, strongest};
+use crate::world::Scene;
+
+/// Duration of a block (two firing sequences), ns.
+pub const BLOCK_NS: u64 = 110_592;
+/// Duration of a firing sequence, ns.
+pub const SEQUENCE_NS: u64 = 55_296;
+/// Delay between two lasers of a sequence, ns.
+pub const LASER_NS: u64 = 2_304;
+
+/// Settings of the simulated sensor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LidarConfig {
+    /// Revolutions per minute (300–1200).
+    pub rpm: f64,
+    /// Return mode byte: 0x37, 0x38 or 0x39.
+    pub return_mode: u8,
+    /// Product byte (0x22 VLP-16).
+    pub product: u8,
+    /// Height of the optical centre above the ground, m.
+    pub sensor_height_m: f64,
+    /// Beam physics.
+    pub physics: PhysicsParams,
+}
+
+impl Default for LidarConfig {
+    fn default() -> Self {
+        LidarConfig {
+            rpm: 600.0,
+            return_mode: return_mode::DUAL,
+            product: 0x22,
+            sensor_height_m: 0.5,
+            physics: PhysicsParams::default(),
+        }
+    }
+}
+
+/// The sensor's state: its clock, its rotation and its random draws.
+#[derive(Debug)]
+pub struct Vlp16 {
+    config: LidarConfig,
+    rng: fastrand::Rng,
+    caster: BeamCaster,
+    candidates: Vec<usize>,
+    cos_elev: [f64; LASERS],
+    sin_elev: [f64; LASERS],
+    epoch_ns: u64,
+    elapsed_ns: u64,
+}
+
+/// How far off a beam may pass an object's bounding circle and still be tested: covers the
+/// azimuth the lasers of one sequence sweep (0.02° at 1200 rpm) out to 100 m.
+const PREFILTER_MARGIN_M: f64 = 0.05;
+
+impl Vlp16 {
+    /// A sensor whose clock starts at `epoch_ns` (ns since the Unix epoch) at azimuth 0, with
+    /// random draws seeded by `seed`.
+    pub fn new(config: LidarConfig, seed: u64, epoch_ns: u64) -> Self {
+        let mut cos_elev = [0.0; LASERS];
+        let mut sin_elev = [0.0; LASERS];
+        for (i, e) in VLP16_ELEVATION_DEG.iter().enumerate() {
+            let r = f64::from(*e).to_radians();
+            cos_elev[i] = r.cos();
+            sin_elev[i] = r.sin();
+        }
+        Vlp16 {
+            config,
+            rng: fastrand::Rng::with_seed(seed),
+            caster: BeamCaster::default(),
+            candidates: Vec::with_capacity(64),
+            cos_elev,
+            sin_elev,
+            epoch_ns,
+            elapsed_ns: 0,
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &LidarConfig {
+        &self.config
+    }
+
+    /// Time one data packet covers, ns.
+    pub fn packet_period_ns(&self) -> u64 {
+        if self.config.return_mode == return_mode::DUAL {
+            6 * BLOCK_NS
+        } else {
+            12 * BLOCK_NS
+        }
+    }
+
+    /// Sensor time of the next packet's first firing, ns since the Unix epoch.
+    pub fn now_ns(&self) -> u64 {
+        self.epoch_ns + self.elapsed_ns
+    }
+
+    /// Azimuth at `elapsed_ns` after the epoch, degrees clockwise from forward in [0, 360).
+    fn azimuth_deg(&self, elapsed_ns: u64) -> f64 {
+        let deg_per_ns = self.config.rpm * 6.0 * 1e-9;
+        (elapsed_ns as f64 * deg_per_ns).rem_euclid(360.0)
+    }
+
+    /// Casts every firing of the next packet from `pose` and encodes it; the sensor's clock moves
+    /// on by one packet.
+    pub fn next_packet(&mut self, scene: &Scene, pose: Pose) -> [u8; DATA_PACKET_LEN] {
+        let dual = self.config.return_mode == return_mode::DUAL;
+        let t0 = self.elapsed_ns;
+        let mut blocks = [(0u16, [(0u16, 0u8); CHANNELS]); BLOCKS];
+        let firing_blocks = if dual { BLOCKS / 2 } else { BLOCKS };
+        for k in 0..firing_blocks {
+            let t_block = t0 + k as u64 * BLOCK_NS;
+            let az_raw = (self.azimuth_deg(t_block) * 100.0).round() as u32 % 36000;
+            let mut chans_a = [(0u16, 0u8); CHANNELS];
+            let mut chans_b = [(0u16, 0u8); CHANNELS];
+            for seq in 0..2 {
+                let t_seq = t_block + seq as u64 * SEQUENCE_NS;
+                self.prefilter(scene, pose, self.azimuth_deg(t_seq));
+                for laser in 0..LASERS {
+                    let t_fire = t_seq + laser as u64 * LASER_NS;
+                    let (a, b) = self.fire(scene, pose, laser, self.azimuth_deg(t_fire));
+                    chans_a[seq * LASERS + laser] = a;
+                    chans_b[seq * LASERS + laser] = b;
+                }
+            }
+            if dual {
+                blocks[2 * k] = (az_raw as u16, chans_a);
+                blocks[2 * k + 1] = (az_raw as u16, chans_b);
+            } else {
+                blocks[k] = (az_raw as u16, chans_a);
+            }
+        }
+        let ts_us = ((self.epoch_ns + t0) / 1000 % 3_600_000_000) as u32;
+        self.elapsed_ns += self.packet_period_ns();
+        encode_data_packet(ts_us, self.config.return_mode, self.config.product, &blocks)
+    }
+
+    /// Objects whose bounding circle the beam at azimuth `az_deg` passes near.
+    fn prefilter(&mut self, scene: &Scene, pose: Pose, az_deg: f64) {
+        let heading = pose.yaw - az_deg.to_radians();
+        let (uy, ux) = heading.sin_cos();
+        self.candidates.clear();
+        for (i, obj) in scene.objects.iter().enumerate() {
+            let (c, r) = obj.bound;
+            let (dx, dy) = (c[0] - pose.x, c[1] - pose.y);
+            let along = dx * ux + dy * uy;
+            let r = r + PREFILTER_MARGIN_M;
+            if along < -r || along > self.config.physics.max_range_m + r {
+                continue;
+            }
+            let across = (dx * uy - dy * ux).abs();
+            if across <= r {
+                self.candidates.push(i);
+            }
+        }
+    }
+
+    /// One laser's firing: the (even, odd) block channel records.
+    fn fire(
+        &mut self,
+        scene: &Scene,
+        pose: Pose,
+        laser: usize,
+        az_deg: f64,
+    ) -> ((u16, u8), (u16, u8)) {
+        let heading = pose.yaw - az_deg.to_radians();
+        let (s, c) = heading.sin_cos();
+        let d = [
+            self.cos_elev[laser] * c,
+            self.cos_elev[laser] * s,
+            self.sin_elev[laser],
+        ];
+        let o = [pose.x, pose.y, self.config.sensor_height_m];
+        let echoes = self.caster.cast(
+            scene,
+            &self.candidates,
+            o,
+            d,
+            &self.config.physics,
+            &mut self.rng,
+        );
+        let rec = |e: Option<Echo>| match e {
+            Some(e) if e.range > 0.0 => (
+                (e.range / 0.002).round().clamp(1.0, 65535.0) as u16,
+                e.intensity.round().clamp(0.0, 255.0) as u8,
+            ),
+            _ => (0, 0),
+        };
+        match self.config.return_mode {
+            return_mode::DUAL => match dual_returns(echoes) {
+                Some((l, s)) => (rec(Some(l)), rec(Some(s))),
+                None => ((0, 0), (0, 0)),
+            },
+            return_mode::LAST => {
+                let r = rec(last(echoes));
+                (r, r)
+            }
+            _ => {
+                let r = rec(strongest(echoes));
+                (r, r)
+            }
+        }
+    }
+
+    /// A position packet stamped `t_ns` (ns since the Unix epoch): PPS locked, a GPRMC
+    /// sentence with the time and date.
+    pub fn position_packet(t_ns: u64) -> [u8; POSITION_PACKET_LEN] {
+        let secs = t_ns / 1_000_000_000;
+        let days = (secs / 86_400) as i64;
+        let tod = secs % 86_400;
+        let (y, m, d) = civil_from_days(days);
+        let body = format!(
+            "GPRMC,{:02}{:02}{:02},A,0000.0000,N,00000.0000,E,000.0,000.0,{:02}{:02}{:02},000.0,E,A",
+            tod / 3600,
+            tod / 60 % 60,
+            tod % 60,
+            d,
+            m,
+            y % 100
+        );
+        let checksum = body.bytes().fold(0u8, |a, b| a ^ b);
+        let sentence = format!("${body}*{checksum:02X}");
+        encode_position_packet(((t_ns / 1000) % 3_600_000_000) as u32, 2, &sentence)
+    }
+}
+
+/// (year, month, day) of a day count since 1970-01-01 (H. Hinnant's algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (if m <= 2 { y + 1 } else { y }, m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mimnav_velodyne::packet::PositionPacket;
+
+    #[test]
+    fn position_packets_carry_a_valid_gprmc() {
+        // 2026-01-01 12:34:56 UTC
+        let t = 1_767_270_896u64 * 1_000_000_000;
+        let p = PositionPacket::parse(&Vlp16::position_packet(t)).expect("parses");
+        assert_eq!(p.gprmc_unix_s(), Some(1_767_270_896.0));
+        assert_eq!(
+            p.timestamp_us,
+            ((1_767_270_896u64 % 3600) * 1_000_000) as u32
+        );
+    }
+}

@@ -1,0 +1,120 @@
+//! The robot base: a unicycle that follows velocity commands within its speed and acceleration
+//! limits, and the collision check against the scene.
+
+use crate::Pose;
+use crate::geometry::footprint_distance;
+use crate::world::Scene;
+
+/// Speed and acceleration limits of a base (from the robot profile).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Largest |v|, m/s.
+    pub max_linear_mps: f64,
+    /// Largest |ω|, rad/s.
+    pub max_angular_rps: f64,
+    /// Largest |dv/dt|, m/s².
+    pub max_linear_accel: f64,
+    /// Largest |dω/dt|, rad/s².
+    pub max_angular_accel: f64,
+}
+
+/// Pose and velocity of the base.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Base {
+    /// Pose in the world.
+    pub pose: Pose,
+    /// Forward speed, m/s.
+    pub v: f64,
+    /// Turn rate, rad/s.
+    pub omega: f64,
+}
+
+impl Base {
+    /// A base at rest at `pose`.
+    pub fn at(pose: Pose) -> Self {
+        Base {
+            pose,
+            v: 0.0,
+            omega: 0.0,
+        }
+    }
+
+    /// Moves for `dt` seconds towards the commanded (v, ω), each clamped to the limits and
+    /// reached no faster than the accelerations allow.
+    pub fn step(&mut self, cmd_v: f64, cmd_omega: f64, dt: f64, lim: &Limits) {
+        let target_v = cmd_v.clamp(-lim.max_linear_mps, lim.max_linear_mps);
+        let target_w = cmd_omega.clamp(-lim.max_angular_rps, lim.max_angular_rps);
+        let dv = (target_v - self.v).clamp(-lim.max_linear_accel * dt, lim.max_linear_accel * dt);
+        let dw =
+            (target_w - self.omega).clamp(-lim.max_angular_accel * dt, lim.max_angular_accel * dt);
+        let (v0, w0) = (self.v, self.omega);
+        self.v += dv;
+        self.omega += dw;
+        // midpoint integration of the unicycle
+        let v = 0.5 * (v0 + self.v);
+        let w = 0.5 * (w0 + self.omega);
+        let yaw_mid = self.pose.yaw + 0.5 * w * dt;
+        self.pose.x += v * yaw_mid.cos() * dt;
+        self.pose.y += v * yaw_mid.sin() * dt;
+        self.pose.yaw = (self.pose.yaw + w * dt + std::f64::consts::PI)
+            .rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+    }
+}
+
+/// The first blocking object (solid or glass) a robot of `radius` at (x, y) touches.
+pub fn contact(scene: &Scene, x: f64, y: f64, radius: f64) -> Option<usize> {
+    scene.objects.iter().position(|o| {
+        if !o.blocks {
+            return false;
+        }
+        let (c, r) = o.bound;
+        if (c[0] - x).hypot(c[1] - y) > r + radius {
+            return false;
+        }
+        footprint_distance(&o.shape, [x, y]) < radius
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIM: Limits = Limits {
+        max_linear_mps: 0.5,
+        max_angular_rps: 1.0,
+        max_linear_accel: 0.5,
+        max_angular_accel: 2.0,
+    };
+
+    #[test]
+    fn accelerates_within_limits_and_drives_straight() {
+        let mut b = Base::at(Pose {
+            x: 0.0,
+            y: 0.0,
+            yaw: 0.0,
+        });
+        b.step(2.0, 0.0, 0.5, &LIM);
+        assert!((b.v - 0.25).abs() < 1e-9, "accel-limited: {}", b.v);
+        for _ in 0..100 {
+            b.step(2.0, 0.0, 0.1, &LIM);
+        }
+        assert!((b.v - 0.5).abs() < 1e-9, "speed-limited: {}", b.v);
+        assert!(b.pose.y.abs() < 1e-9 && b.pose.x > 4.0);
+    }
+
+    #[test]
+    fn turns_in_place() {
+        let mut b = Base::at(Pose {
+            x: 1.0,
+            y: 1.0,
+            yaw: 0.0,
+        });
+        for _ in 0..1000 {
+            b.step(0.0, 1.0, 0.001, &LIM);
+        }
+        assert!((b.pose.x - 1.0).abs() < 1e-9 && (b.pose.y - 1.0).abs() < 1e-9);
+        // 0.5 s to reach 1 rad/s (0.25 rad), then 0.5 s at 1 rad/s
+        assert!((b.pose.yaw - 0.75).abs() < 1e-2, "{}", b.pose.yaw);
+    }
+}
