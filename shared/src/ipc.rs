@@ -356,6 +356,25 @@ pub fn scan_subscriber(node: &Node<Svc>) -> Result<ScanSubscriber, IpcError> {
     SliceSubscriber::open(node, topics::LIDAR_SCAN2D)
 }
 
+/// Opens (or creates) the publish-subscribe service of a fixed-size topic with the project's
+/// QoS; both sides come through here.
+fn value_service<T: Debug + ZeroCopySend + Copy + 'static>(
+    node: &Node<Svc>,
+    topic: &'static str,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, T, ()>, IpcError> {
+    node.service_builder(&service_name(topic)?)
+        .publish_subscribe::<T>()
+        .enable_safe_overflow(true)
+        .history_size(0)
+        .subscriber_max_buffer_size(SMALL_BUFFER)
+        .subscriber_max_borrowed_samples(2)
+        .max_publishers(MAX_PUBLISHERS)
+        .max_subscribers(MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| topic_err(topic, e))
+}
+
 /// Publisher of a fixed-size payload topic.
 #[derive(Debug)]
 pub struct ValuePublisher<T: Debug + ZeroCopySend + Copy + 'static> {
@@ -366,18 +385,7 @@ pub struct ValuePublisher<T: Debug + ZeroCopySend + Copy + 'static> {
 
 impl<T: Debug + ZeroCopySend + Copy + 'static> ValuePublisher<T> {
     fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
-        let service = node
-            .service_builder(&service_name(topic)?)
-            .publish_subscribe::<T>()
-            .enable_safe_overflow(true)
-            .history_size(0)
-            .subscriber_max_buffer_size(SMALL_BUFFER)
-            .subscriber_max_borrowed_samples(2)
-            .max_publishers(MAX_PUBLISHERS)
-            .max_subscribers(MAX_SUBSCRIBERS)
-            .max_nodes(MAX_NODES)
-            .open_or_create()
-            .map_err(|e| topic_err(topic, e))?;
+        let service = value_service::<T>(node, topic)?;
         let publisher = service
             .publisher_builder()
             .create()
@@ -407,6 +415,112 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> ValuePublisher<T> {
         self.notifier.notify().map_err(|e| publish_err(&e))?;
         Ok(n)
     }
+}
+
+/// Subscriber of a fixed-size payload topic, with the listener to block on.
+#[derive(Debug)]
+pub struct ValueSubscriber<T: Debug + ZeroCopySend + Copy + 'static> {
+    topic: &'static str,
+    subscriber: Subscriber<Svc, T, ()>,
+    listener: Listener<Svc>,
+}
+
+impl<T: Debug + ZeroCopySend + Copy + 'static> ValueSubscriber<T> {
+    fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
+        let service = value_service::<T>(node, topic)?;
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(SMALL_BUFFER)
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        let listener = event_service(node, topic)?
+            .listener_builder()
+            .create()
+            .map_err(|e| topic_err(topic, e))?;
+        Ok(ValueSubscriber {
+            topic,
+            subscriber,
+            listener,
+        })
+    }
+
+    /// The listener to attach to a WaitSet.
+    pub fn listener(&self) -> &Listener<Svc> {
+        &self.listener
+    }
+
+    /// Drains the listener's notifications without blocking.
+    pub fn heard(&self) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener.try_wait(|a| h.add(a));
+        h
+    }
+
+    /// Waits up to `timeout` for notifications and drains them.
+    pub fn heard_within(&self, timeout: core::time::Duration) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener.timed_wait(|a| h.add(a), timeout);
+        h
+    }
+
+    /// The next received value, if any.
+    pub fn receive(&self) -> Result<Option<T>, IpcError> {
+        self.subscriber
+            .receive()
+            .map(|s| s.map(|s| *s.payload()))
+            .map_err(|e| IpcError::Topic {
+                topic: self.topic,
+                detail: format!("cannot receive: {e:?}"),
+            })
+    }
+
+    /// The newest value waiting, dropping older ones, if any.
+    pub fn latest(&self) -> Result<Option<T>, IpcError> {
+        let mut last = None;
+        while let Some(v) = self.receive()? {
+            last = Some(v);
+        }
+        Ok(last)
+    }
+}
+
+/// Opens `cmd_vel` for publishing.
+pub fn cmd_vel_publisher(
+    node: &Node<Svc>,
+) -> Result<ValuePublisher<topics::VelocityCommand>, IpcError> {
+    ValuePublisher::open(node, topics::CMD_VEL)
+}
+
+/// Opens `cmd_vel` for receiving.
+pub fn cmd_vel_subscriber(
+    node: &Node<Svc>,
+) -> Result<ValueSubscriber<topics::VelocityCommand>, IpcError> {
+    ValueSubscriber::open(node, topics::CMD_VEL)
+}
+
+/// Opens `odom` for publishing.
+pub fn odom_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::Odometry>, IpcError> {
+    ValuePublisher::open(node, topics::ODOM)
+}
+
+/// Opens `odom` for receiving.
+pub fn odom_subscriber(node: &Node<Svc>) -> Result<ValueSubscriber<topics::Odometry>, IpcError> {
+    ValueSubscriber::open(node, topics::ODOM)
+}
+
+/// Publisher of `sim/truth`.
+pub type TruthPublisher = SlicePublisher<u8, topics::TruthHeader>;
+/// Subscriber of `sim/truth`.
+pub type TruthSubscriber = SliceSubscriber<u8, topics::TruthHeader>;
+
+/// Opens `sim/truth` for publishing grids of up to `cells` cells.
+pub fn truth_publisher(node: &Node<Svc>, cells: usize) -> Result<TruthPublisher, IpcError> {
+    SlicePublisher::open(node, topics::SIM_TRUTH, cells)
+}
+
+/// Opens `sim/truth` for receiving.
+pub fn truth_subscriber(node: &Node<Svc>) -> Result<TruthSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::SIM_TRUTH)
 }
 
 /// Opens `lidar/packets` for publishing raw datagrams.
