@@ -6,6 +6,8 @@
 
 /// The `mimnav` command line.
 mod cli;
+/// The simulator streaming to the driver, and lock-step with a stand-in planner.
+mod sim;
 /// Helpers: finding the binaries, the shared data, receiving revolutions.
 mod util;
 /// The VLP-16 driver as a process: replay, UDP, bad input, config errors, SIGTERM.

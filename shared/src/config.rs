@@ -291,6 +291,8 @@ pub struct VelodyneConfig {
     pub position_port: u16,
     /// Accept datagrams from this sender only (the sensor's address).
     pub allowed_source: Option<IpAddr>,
+    /// UDP receive buffer asked of the kernel, bytes.
+    pub recv_buffer_bytes: usize,
     /// Capture file replayed when `input = "pcap"`.
     pub pcap: Option<PathBuf>,
     /// Replay speed factor (1.0 is real time).
@@ -333,6 +335,7 @@ impl Default for VelodyneConfig {
             data_port: 2368,
             position_port: 8308,
             allowed_source: None,
+            recv_buffer_bytes: 4 << 20,
             pcap: None,
             replay_speed: 1.0,
             replay_fast: false,

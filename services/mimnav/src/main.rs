@@ -3,6 +3,7 @@
 
 mod procs;
 mod replay;
+mod sim;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -30,6 +31,9 @@ enum Command {
     /// Replay a VLP-16 capture through the driver (started as its own process) and print every
     /// revolution it publishes: point count, return-mode mix, rate.
     Replay(replay::ReplayArgs),
+    /// Run the simulator: write a capture of a world (--pcap OUT), or stream it over UDP to the
+    /// driver in real time (--lockstep: as fast as the stack answers).
+    Sim(sim::SimArgs),
     /// Check the config file and print the settings in force.
     CheckConfig,
 }
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
     mimnav_shared::logging::init(&std::env::var("MIMNAV_LOG").unwrap_or_else(|_| "warn".into()));
     let result = match &cli.command {
         Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
+        Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
         Command::CheckConfig => {
             println!(
                 "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",

@@ -223,7 +223,7 @@ mod tests {
         let h =
             intersect(&c, [0.0, 0.0, 0.5], dir(0.0, -7.0)).expect("hits the rock's top or side");
         let z = 0.5 + h.t_in * (-7f64).to_radians().sin();
-        assert!(z <= 0.3 + 1e-9 && z >= 0.0, "{z}");
+        assert!((0.0..=0.3 + 1e-9).contains(&z), "{z}");
         let tall = Shape::Cylinder {
             c: [3.0, 0.0],
             r: 0.5,

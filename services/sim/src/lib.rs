@@ -27,14 +27,61 @@ pub mod physics;
 pub mod truth;
 pub mod world;
 
+use mimnav_shared::config::{Config, SimReturnMode};
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::topics::DATA_PACKET_LEN;
+use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
 use mimnav_velodyne::packet::{BLOCKS, POSITION_PACKET_LEN};
 use mimnav_velodyne::revolution::TurnCutter;
 
 use crate::lidar::{LidarConfig, Vlp16};
 use crate::motion::{Base, Limits};
+use crate::physics::PhysicsParams;
 use crate::world::Scene;
+
+/// Source address of simulated packets in captures: the VLP-16's factory default.
+pub const SENSOR_ADDRESS: std::net::Ipv4Addr = std::net::Ipv4Addr::new(192, 168, 1, 201);
+
+/// What [`write_capture`] wrote.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CaptureStats {
+    /// Data packets.
+    pub packets: u64,
+    /// Revolutions completed.
+    pub revolutions: u64,
+}
+
+/// Writes `seconds` of `sim`'s sensor to `out` as a pcap: data packets to `ports.0`, position
+/// packets to `ports.1` (0: none), from the sensor's address to broadcast, stamped when sent.
+pub fn write_capture<W: std::io::Write>(
+    sim: &mut Sim,
+    seconds: f64,
+    ports: (u16, u16),
+    out: W,
+) -> Result<CaptureStats, pcap_file::PcapError> {
+    let mut w = mimnav_velodyne::capture::PcapDatagramWriter::new(out)?;
+    let dst = std::net::Ipv4Addr::BROADCAST;
+    let mut stats = CaptureStats {
+        packets: 0,
+        revolutions: 0,
+    };
+    while sim.elapsed_s() < seconds {
+        let step = sim.step();
+        if let Some((pos, t)) = step.position
+            && ports.1 != 0
+        {
+            w.write(t, (SENSOR_ADDRESS, ports.1), (dst, ports.1), &pos)?;
+        }
+        w.write(
+            step.send_ns,
+            (SENSOR_ADDRESS, ports.0),
+            (dst, ports.0),
+            &step.data,
+        )?;
+        stats.packets += 1;
+        stats.revolutions += u64::from(step.completes_revolution);
+    }
+    Ok(stats)
+}
 
 /// Sensor clock start of captures, for reproducible bytes: 2026-01-01T00:00:00Z.
 pub const DEFAULT_EPOCH_NS: u64 = 1_767_225_600_000_000_000;
@@ -61,6 +108,41 @@ pub struct SimSettings {
     pub radius_m: f64,
     /// The goal counts as reached within this distance, m.
     pub goal_tolerance_m: f64,
+}
+
+impl SimSettings {
+    /// Settings from the stack's config: the sensor is what `[velodyne]` says it is set to
+    /// (`rpm`), mounted as `[robot]` says; physics and return mode from `[sim]`.
+    pub fn from_config(config: &Config) -> Self {
+        let s = &config.sim;
+        let r = &config.robot;
+        SimSettings {
+            lidar: LidarConfig {
+                rpm: config.velodyne.rpm,
+                return_mode: match s.return_mode {
+                    SimReturnMode::Dual => return_mode::DUAL,
+                    SimReturnMode::Strongest => return_mode::STRONGEST,
+                    SimReturnMode::Last => return_mode::LAST,
+                },
+                product: 0x22,
+                sensor_height_m: r.sensor_height_m,
+                physics: PhysicsParams {
+                    range_noise_m: s.range_noise_m,
+                    intensity_noise: s.intensity_noise,
+                    glass_specular_rad: s.glass_specular_deg.to_radians(),
+                    max_range_m: 100.0,
+                },
+            },
+            limits: Limits {
+                max_linear_mps: r.max_linear_mps,
+                max_angular_rps: r.max_angular_rps,
+                max_linear_accel: r.max_linear_accel,
+                max_angular_accel: r.max_angular_accel,
+            },
+            radius_m: r.radius_m,
+            goal_tolerance_m: s.goal_tolerance_m,
+        }
+    }
 }
 
 impl Default for SimSettings {

@@ -14,16 +14,12 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use mimnav_shared::config::{Config, SimReturnMode};
+use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::ipc::{self, TruthPublisher, ValuePublisher, ValueSubscriber};
-use mimnav_shared::topics::{Odometry, TruthHeader, VelocityCommand, return_mode};
-use mimnav_sim::lidar::LidarConfig;
-use mimnav_sim::motion::Limits;
-use mimnav_sim::physics::PhysicsParams;
+use mimnav_shared::topics::{Odometry, TruthHeader, VelocityCommand};
 use mimnav_sim::world::WorldFile;
 use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
-use mimnav_velodyne::capture::PcapDatagramWriter;
 
 /// The scenario simulator: a VLP-16 in a world, streaming packets (UDP), writing a capture, or
 /// lock-stepped with the stack.
@@ -74,11 +70,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    if let Some(s) = args.seconds {
-        if !(s > 0.0 && s <= 86_400.0) {
-            eprintln!("mimnav-sim: --seconds {s} is out of range: allowed above 0 to 86400");
-            return ExitCode::from(2);
-        }
+    if let Some(s) = args.seconds
+        && !(s > 0.0 && s <= 86_400.0)
+    {
+        eprintln!("mimnav-sim: --seconds {s} is out of range: allowed above 0 to 86400");
+        return ExitCode::from(2);
     }
     let world_path = args
         .world
@@ -106,41 +102,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// Simulation settings from the stack's config: the sensor is what `[velodyne]` says it is set
-/// to, mounted as `[robot]` says.
-fn settings(config: &Config) -> SimSettings {
-    let s = &config.sim;
-    let r = &config.robot;
-    SimSettings {
-        lidar: LidarConfig {
-            rpm: config.velodyne.rpm,
-            return_mode: match s.return_mode {
-                SimReturnMode::Dual => return_mode::DUAL,
-                SimReturnMode::Strongest => return_mode::STRONGEST,
-                SimReturnMode::Last => return_mode::LAST,
-            },
-            product: 0x22,
-            sensor_height_m: r.sensor_height_m,
-            physics: PhysicsParams {
-                range_noise_m: s.range_noise_m,
-                intensity_noise: s.intensity_noise,
-                glass_specular_rad: s.glass_specular_deg.to_radians(),
-                max_range_m: 100.0,
-            },
-        },
-        limits: Limits {
-            max_linear_mps: r.max_linear_mps,
-            max_angular_rps: r.max_angular_rps,
-            max_linear_accel: r.max_linear_accel,
-            max_angular_accel: r.max_angular_accel,
-        },
-        radius_m: r.radius_m,
-        goal_tolerance_m: s.goal_tolerance_m,
-    }
-}
-
-const SENSOR_ADDR: [u8; 4] = [192, 168, 1, 201];
-
 fn write_capture(
     config: &Config,
     world: &WorldFile,
@@ -149,41 +110,25 @@ fn write_capture(
 ) -> Result<ExitCode> {
     let mut sim = Sim::new(
         world.compile(),
-        settings(config),
+        SimSettings::from_config(config),
         config.sim.seed,
         DEFAULT_EPOCH_NS,
     );
     let file =
         std::fs::File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut w = PcapDatagramWriter::new(std::io::BufWriter::new(file))
-        .with_context(|| format!("cannot write {}", out.display()))?;
-    let src = std::net::Ipv4Addr::from(SENSOR_ADDR);
-    let dst = std::net::Ipv4Addr::BROADCAST;
     let v = &config.velodyne;
-    let (mut packets, mut revolutions) = (0u64, 0u64);
-    while sim.elapsed_s() < seconds {
-        let step = sim.step();
-        if let Some((pos, t)) = step.position {
-            if v.position_port != 0 {
-                w.write(t, (src, v.position_port), (dst, v.position_port), &pos)?;
-            }
-        }
-        w.write(
-            step.send_ns,
-            (src, v.data_port),
-            (dst, v.data_port),
-            &step.data,
-        )?;
-        packets += 1;
-        revolutions += u64::from(step.completes_revolution);
-    }
+    let ports = (v.data_port, v.position_port);
+    let mut w = std::io::BufWriter::new(file);
+    let stats = mimnav_sim::write_capture(&mut sim, seconds, ports, &mut w)
+        .with_context(|| format!("cannot write {}", out.display()))?;
     use std::io::Write;
-    w.into_inner()
-        .flush()
+    w.flush()
         .with_context(|| format!("cannot write {}", out.display()))?;
     println!(
-        "{}: {packets} data packets, {revolutions} revolutions, {seconds} s of {} (seed {})",
+        "{}: {} data packets, {} revolutions, {seconds} s of {} (seed {})",
         out.display(),
+        stats.packets,
+        stats.revolutions,
         world.name,
         config.sim.seed
     );
@@ -280,7 +225,12 @@ fn run_live(
     // the sensor's clock is the host's, as with a GPS-synchronised sensor, so the driver resolves
     // the hour of its timestamps the same way
     let epoch_ns = ipc::realtime_ns() / 1000 * 1000;
-    let mut sim = Sim::new(world.compile(), settings(config), config.sim.seed, epoch_ns);
+    let mut sim = Sim::new(
+        world.compile(),
+        SimSettings::from_config(config),
+        config.sim.seed,
+        epoch_ns,
+    );
     tracing::info!(
         world = %world.name,
         to = %links.data_to,
@@ -308,10 +258,10 @@ fn run_live(
                 break;
             }
         }
-        if let Some((pos, _)) = step.position {
-            if let Some(to) = links.position_to {
-                links.send(&pos, to);
-            }
+        if let Some((pos, _)) = step.position
+            && let Some(to) = links.position_to
+        {
+            links.send(&pos, to);
         }
         links.send(&step.data, links.data_to);
         if !lockstep {

@@ -12,6 +12,7 @@
 //! - grass and bushes are volumes: blade hits come at exponentially distributed distances
 //!   (`density` per metre), each intercepting 20–70 % of the beam;
 //! - the beam ends when less than 5 % of it is left.
+//!
 //! Echoes weaker than 1 reflectivity unit are not detected. The sensor reports the last echo and
 //! the strongest one (the second strongest when the last is also the strongest).
 

@@ -356,6 +356,7 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
         data_port: v.data_port,
         position_port: (v.position_port != 0).then_some(v.position_port),
         allowed_source: v.allowed_source,
+        recv_buffer_bytes: v.recv_buffer_bytes,
     };
     let mut source = UdpSource::bind(&udp).with_context(|| {
         format!(
@@ -363,6 +364,14 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
             v.bind_address, v.data_port, v.position_port
         )
     })?;
+    let granted = source.recv_buffer_bytes().unwrap_or(0);
+    if granted < v.recv_buffer_bytes {
+        tracing::info!(
+            asked = v.recv_buffer_bytes,
+            granted,
+            "the kernel granted a smaller UDP receive buffer (raise net.core.rmem_max to get more)"
+        );
+    }
     tracing::info!(
         data = %source.data_addr().map(|a| a.to_string()).unwrap_or_default(),
         position_port = v.position_port,

@@ -16,6 +16,9 @@ pub struct UdpConfig {
     pub position_port: Option<u16>,
     /// Accept datagrams from this sender only.
     pub allowed_source: Option<IpAddr>,
+    /// Receive buffer asked of the kernel for the data socket, bytes (the kernel may grant less:
+    /// `net.core.rmem_max`).
+    pub recv_buffer_bytes: usize,
 }
 
 /// Which socket a datagram came in on.
@@ -54,6 +57,7 @@ impl UdpSource {
     pub fn bind(config: &UdpConfig) -> io::Result<Self> {
         let data = UdpSocket::bind((config.bind_address, config.data_port))?;
         data.set_nonblocking(true)?;
+        set_recv_buffer(&data, config.recv_buffer_bytes)?;
         let position = match config.position_port {
             Some(p) => {
                 let s = UdpSocket::bind((config.bind_address, p))?;
@@ -78,6 +82,26 @@ impl UdpSource {
     /// The local address of the position socket, if any.
     pub fn position_addr(&self) -> Option<io::Result<SocketAddr>> {
         self.position.as_ref().map(|s| s.local_addr())
+    }
+
+    /// The receive buffer the kernel granted the data socket, bytes.
+    pub fn recv_buffer_bytes(&self) -> io::Result<usize> {
+        let mut v: libc::c_int = 0;
+        let mut len = std::mem::size_of::<libc::c_int>() as libc::socklen_t;
+        // SAFETY: getsockopt writes one c_int through valid pointers on a socket we own.
+        let r = unsafe {
+            libc::getsockopt(
+                self.data.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_RCVBUF,
+                (&mut v as *mut libc::c_int).cast(),
+                &mut len,
+            )
+        };
+        if r != 0 {
+            return Err(io::Error::last_os_error());
+        }
+        Ok(v.max(0) as usize)
     }
 
     /// The file descriptors to wait on: the data socket, then the position socket if any.
@@ -150,6 +174,25 @@ impl UdpSource {
     }
 }
 
+fn set_recv_buffer(socket: &UdpSocket, bytes: usize) -> io::Result<()> {
+    let v = libc::c_int::try_from(bytes).unwrap_or(libc::c_int::MAX);
+    // SAFETY: setsockopt reads one c_int through a valid pointer on a socket we own.
+    let r = unsafe {
+        libc::setsockopt(
+            socket.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_RCVBUF,
+            (&v as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    if r != 0 {
+        Err(io::Error::last_os_error())
+    } else {
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +204,7 @@ mod tests {
             data_port: 0,
             position_port: Some(0),
             allowed_source: Some(IpAddr::from([127, 0, 0, 1])),
+            recv_buffer_bytes: 1 << 20,
         };
         let mut src = UdpSource::bind(&cfg).expect("bind");
         let data_addr = src.data_addr().expect("addr");

@@ -1,0 +1,168 @@
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use mimnav_shared::ipc::{self, PrivateDomain};
+use mimnav_shared::topics::{VelocityCommand, command_status};
+
+use crate::util::{PointsTap, Proc, bin};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn free_udp_port() -> u16 {
+    let s = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    s.local_addr().expect("addr").port()
+}
+
+/// `--config` and `--set` arguments shared by the driver and the simulator of one test.
+fn stack_args(domain: &PrivateDomain, data_port: u16, position_port: u16) -> Vec<String> {
+    let mut a = vec![
+        "--config".into(),
+        root().join("config/mimnav.toml").display().to_string(),
+    ];
+    a.extend(domain.set_args());
+    for s in [
+        "velodyne.input=\"udp\"".to_string(),
+        "velodyne.bind_address=\"127.0.0.1\"".into(),
+        format!("velodyne.data_port={data_port}"),
+        format!("velodyne.position_port={position_port}"),
+        "sim.udp_target=\"127.0.0.1\"".into(),
+    ] {
+        a.extend(["--set".into(), s]);
+    }
+    a
+}
+
+#[test]
+fn the_simulator_streams_to_the_driver_like_a_sensor() {
+    let domain = PrivateDomain::new("e2e-sim");
+    let (dp, pp) = (free_udp_port(), free_udp_port());
+    let args = stack_args(&domain, dp, pp);
+    let tap = PointsTap::open(&domain);
+    let mut driver = Proc::start(
+        Command::new(bin("mimnav-velodyne"))
+            .args(&args)
+            .env("MIMNAV_LOG", "info")
+            .stderr(Stdio::piped()),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let world = root().join("config/worlds/one_wall.toml");
+    let mut sim = Proc::start(
+        Command::new(bin("mimnav-sim"))
+            .args(&args)
+            .arg("--world")
+            .arg(&world)
+            .args(["--seconds", "1.5"]),
+    );
+    let got = tap.collect(Duration::from_secs(20), |c| c.counts.len() >= 12);
+    let status = sim
+        .wait(Duration::from_secs(20))
+        .expect("the simulator ends after 1.5 s");
+    assert!(status.success(), "{status}");
+    assert!(
+        got.counts.len() >= 12,
+        "revolutions at 10 Hz: {:?}",
+        got.counts
+    );
+    for (h, n) in got.headers.iter().zip(&got.counts) {
+        assert!((148..=153).contains(&h.packet_count), "{h:?}");
+        assert!(*n > 10_000, "{n} points");
+        assert_eq!(h.return_mode, 0x39, "dual return");
+    }
+    // the stamps are the simulated sensor's clock, in step with the host's
+    let now = ipc::realtime_ns();
+    let stamp = got.headers.last().expect("header").stamp_ns;
+    assert!(
+        now.abs_diff(stamp) < 10_000_000_000,
+        "sensor time {stamp} vs host {now}"
+    );
+    let _ = driver.terminate(Duration::from_secs(1));
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut driver.0.stderr.take().expect("stderr"), &mut err)
+        .expect("read");
+    assert!(
+        err.contains("faults: none"),
+        "no decode fault on simulated packets: {err}"
+    );
+    assert!(
+        err.contains("position packet: PPS Locked"),
+        "position packets arrive: {err}"
+    );
+}
+
+#[test]
+fn lockstep_waits_for_the_stack_and_follows_its_commands() {
+    let domain = PrivateDomain::new("e2e-lockstep");
+    let (dp, pp) = (free_udp_port(), free_udp_port());
+    let args = stack_args(&domain, dp, pp);
+    // a stand-in planner: answers every revolution with 0.3 m/s straight ahead
+    let node = ipc::node(&domain.config(), "fake-planner").expect("node");
+    let points = ipc::points_subscriber(&node).expect("points");
+    let cmd = ipc::cmd_vel_publisher(&node).expect("cmd_vel");
+    let _driver = Proc::start(Command::new(bin("mimnav-velodyne")).args(&args));
+    std::thread::sleep(Duration::from_millis(300));
+    let world = root().join("config/worlds/open_field.toml");
+    let mut sim = Proc::start(
+        Command::new(bin("mimnav-sim"))
+            .args(&args)
+            .arg("--world")
+            .arg(&world)
+            .args(["--lockstep", "--seconds", "3", "--json"])
+            .stdout(Stdio::piped()),
+    );
+    let until = Instant::now() + Duration::from_secs(60);
+    let mut answered = 0u64;
+    let status = loop {
+        if let Some(s) = sim.0.try_wait().expect("wait") {
+            break s;
+        }
+        assert!(Instant::now() < until, "lock-step run did not finish");
+        points.heard_within(Duration::from_millis(20));
+        while let Some(sample) = points.receive().expect("receive") {
+            let h = *sample.user_header();
+            let c = VelocityCommand {
+                seq: answered,
+                stamp_mono_ns: ipc::monotonic_ns(),
+                source_stamp_ns: h.stamp_ns,
+                source_seq: h.seq,
+                valid_until_mono_ns: u64::MAX,
+                v: 0.3,
+                omega: 0.0,
+                status: command_status::DRIVING,
+                reserved: [0; 7],
+            };
+            cmd.publish(c).expect("publish");
+            answered += 1;
+        }
+    };
+    assert!(status.success(), "{status}");
+    let mut out = String::new();
+    std::io::Read::read_to_string(&mut sim.0.stdout.take().expect("stdout"), &mut out)
+        .expect("read");
+    let field = |k: &str| -> f64 {
+        let at = out
+            .find(&format!("\"{k}\":"))
+            .unwrap_or_else(|| panic!("{k} in {out}"));
+        out[at + k.len() + 3..]
+            .split([',', '}'])
+            .next()
+            .expect("value")
+            .parse()
+            .expect("number")
+    };
+    assert_eq!(
+        field("lockstep_timeouts"),
+        0.0,
+        "every revolution answered in time: {out}"
+    );
+    assert!(field("revolutions") >= 28.0, "{out}");
+    // 3 s at up to 0.3 m/s after accelerating at 0.6 m/s², one revolution of command lag
+    let x = field("x");
+    assert!(
+        (0.6..0.9).contains(&x),
+        "the robot followed the commands: x = {x}: {out}"
+    );
+    assert!(answered >= 28, "{answered}");
+}
