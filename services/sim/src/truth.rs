@@ -56,7 +56,9 @@ pub fn truth_grid(scene: &Scene, pose: Pose, grid: GridSpec, out: &mut Vec<u8>) 
                 let (x, y) = (f64::from(x), f64::from(y));
                 let wx = pose.x + c * x - s * y;
                 let wy = pose.y + s * x + c * y;
-                if footprint_distance(&obj.shape, [wx, wy]) <= half {
+                // a hair over half a cell, so a sheet lying exactly on a cell border marks the
+                // cells on both sides rather than neither
+                if footprint_distance(&obj.shape, [wx, wy]) <= half + 1e-6 {
                     out[i] = obj.class;
                 }
             }

@@ -303,3 +303,49 @@ fn bad_worlds_are_refused_with_the_key() {
     .expect_err("coverage out of range");
     assert!(e.to_string().contains("curtain[0].coverage = 1.5"), "{e}");
 }
+
+#[test]
+fn ground_truth_marks_each_class_where_it_stands_in_the_robot_frame() {
+    use mimnav_shared::grid::GridSpec;
+    use mimnav_shared::topics::cell_class;
+    let world = "name = 't'\nstart = [0.0, 0.0, 90.0]\ngoal = [3.0, 0.0]\ntime_limit_s = 10.0\n\
+        [[wall]]\nfrom = [-1.0, 2.0]\nto = [1.0, 2.0]\n\
+        [[glass]]\nfrom = [-1.0, -2.0]\nto = [1.0, -2.0]\n\
+        [[grass]]\ncenter = [2.0, 0.0]\nsize = [1.0, 1.0]\n\
+        [[rock]]\ncenter = [2.0, 0.0]\nradius = 0.2\n";
+    let s = sim(world, 1);
+    let grid = GridSpec {
+        cells: 200,
+        cell_m: 0.05,
+    };
+    let mut t = Vec::new();
+    s.truth(grid, &mut t);
+    let at = |x: f32, y: f32| {
+        let (r, c) = grid.cell_of(x, y).expect("inside");
+        t[grid.index(r, c)]
+    };
+    // the robot faces +y: the wall at world y = 2 is 2 m ahead, the glass 2 m behind, the grass
+    // (world x = 2) 2 m to the right, with the rock inside it
+    assert_eq!(at(2.0, 0.0), cell_class::SOLID);
+    assert_eq!(at(-2.0, 0.0), cell_class::GLASS);
+    assert_eq!(at(0.0, -1.7), cell_class::PASSABLE);
+    assert_eq!(
+        at(0.0, -2.0),
+        cell_class::SOLID,
+        "the rock wins over the grass it stands in"
+    );
+    assert_eq!(at(0.0, 0.0), cell_class::FREE);
+    assert_eq!(at(1.0, 1.0), cell_class::FREE);
+    let count = |class| t.iter().filter(|&&c| c == class).count();
+    // a 2 m wall covers about 40 cells along it, one or two across; the rock about 60
+    assert!(
+        (90..=200).contains(&count(cell_class::SOLID)),
+        "{}",
+        count(cell_class::SOLID)
+    );
+    assert!(
+        (40..=130).contains(&count(cell_class::GLASS)),
+        "{}",
+        count(cell_class::GLASS)
+    );
+}
