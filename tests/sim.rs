@@ -2,7 +2,7 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use mimnav_shared::ipc::{self, PrivateDomain};
+use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{VelocityCommand, command_status};
 
 use crate::util::{PointsTap, Proc, bin};

@@ -2,7 +2,7 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use mimnav_shared::ipc::{self, PointsSubscriber, PrivateDomain, Svc};
+use mimnav_shared::ipc::{self, Listening, PointsSubscriber, PrivateDomain, Svc};
 use mimnav_shared::topics::PointsHeader;
 
 /// Folder of the workspace's binaries: beside the test executable's `deps/` folder, or

@@ -266,6 +266,49 @@ pub struct Heard {
     pub end_of_stream: bool,
 }
 
+/// The receiving side of a topic's event service: what subscribers block on.
+pub trait Listening {
+    /// The listener to attach to a WaitSet.
+    fn listener(&self) -> &Listener<Svc>;
+
+    /// Drains the listener's notifications without blocking.
+    fn heard(&self) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener().try_wait(|a| h.add(a));
+        h
+    }
+
+    /// Waits up to `timeout` for notifications and drains them (for loops without a WaitSet).
+    fn heard_within(&self, timeout: core::time::Duration) -> Heard {
+        let mut h = Heard::default();
+        let _ = self.listener().timed_wait(|a| h.add(a), timeout);
+        h
+    }
+}
+
+fn listener(node: &Node<Svc>, topic: &'static str) -> Result<Listener<Svc>, IpcError> {
+    event_service(node, topic)?
+        .listener_builder()
+        .create()
+        .map_err(|e| topic_err(topic, e))
+}
+
+impl<T, H> Listening for SliceSubscriber<T, H>
+where
+    T: Debug + ZeroCopySend + Copy + 'static,
+    H: Debug + ZeroCopySend + Copy + Default + 'static,
+{
+    fn listener(&self) -> &Listener<Svc> {
+        &self.listener
+    }
+}
+
+impl<T: Debug + ZeroCopySend + Copy + 'static> Listening for ValueSubscriber<T> {
+    fn listener(&self) -> &Listener<Svc> {
+        &self.listener
+    }
+}
+
 impl Heard {
     fn add(&mut self, a: EventActivation) {
         if a.id.as_value() == EVENT_END_OF_STREAM {
@@ -288,34 +331,12 @@ where
             .buffer_size(SLICE_BUFFER)
             .create()
             .map_err(|e| topic_err(topic, e))?;
-        let listener = event_service(node, topic)?
-            .listener_builder()
-            .create()
-            .map_err(|e| topic_err(topic, e))?;
+        let listener = listener(node, topic)?;
         Ok(SliceSubscriber {
             topic,
             subscriber,
             listener,
         })
-    }
-
-    /// The listener to attach to a WaitSet.
-    pub fn listener(&self) -> &Listener<Svc> {
-        &self.listener
-    }
-
-    /// Drains the listener's notifications without blocking.
-    pub fn heard(&self) -> Heard {
-        let mut h = Heard::default();
-        let _ = self.listener.try_wait(|a| h.add(a));
-        h
-    }
-
-    /// Waits up to `timeout` for notifications and drains them (for loops without a WaitSet).
-    pub fn heard_within(&self, timeout: core::time::Duration) -> Heard {
-        let mut h = Heard::default();
-        let _ = self.listener.timed_wait(|a| h.add(a), timeout);
-        h
     }
 
     /// The next received sample, if any.
@@ -433,34 +454,12 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> ValueSubscriber<T> {
             .buffer_size(SMALL_BUFFER)
             .create()
             .map_err(|e| topic_err(topic, e))?;
-        let listener = event_service(node, topic)?
-            .listener_builder()
-            .create()
-            .map_err(|e| topic_err(topic, e))?;
+        let listener = listener(node, topic)?;
         Ok(ValueSubscriber {
             topic,
             subscriber,
             listener,
         })
-    }
-
-    /// The listener to attach to a WaitSet.
-    pub fn listener(&self) -> &Listener<Svc> {
-        &self.listener
-    }
-
-    /// Drains the listener's notifications without blocking.
-    pub fn heard(&self) -> Heard {
-        let mut h = Heard::default();
-        let _ = self.listener.try_wait(|a| h.add(a));
-        h
-    }
-
-    /// Waits up to `timeout` for notifications and drains them.
-    pub fn heard_within(&self, timeout: core::time::Duration) -> Heard {
-        let mut h = Heard::default();
-        let _ = self.listener.timed_wait(|a| h.add(a), timeout);
-        h
     }
 
     /// The next received value, if any.

@@ -3,6 +3,7 @@
 //! ([`logging`]) and rate-limited fault counting ([`faults`]).
 #![deny(missing_docs)]
 
+pub mod cli;
 pub mod config;
 pub mod faults;
 pub mod grid;

@@ -10,7 +10,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use indicatif::{ProgressBar, ProgressStyle};
 use mimnav_shared::config::{Config, toml_quote};
-use mimnav_shared::ipc::{self, PrivateDomain, Svc};
+use mimnav_shared::ipc::{self, Listening, PrivateDomain, Svc};
 use mimnav_shared::topics::{PointsHeader, cut_reason};
 use mimnav_velodyne::capture::CaptureReader;
 

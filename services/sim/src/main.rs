@@ -14,9 +14,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
-use mimnav_shared::ipc::{self, TruthPublisher, ValuePublisher, ValueSubscriber};
+use mimnav_shared::ipc::{self, Listening, TruthPublisher, ValuePublisher, ValueSubscriber};
 use mimnav_shared::topics::{Odometry, TruthHeader, VelocityCommand};
 use mimnav_sim::world::WorldFile;
 use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
@@ -26,13 +27,8 @@ use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
 #[derive(Debug, Parser)]
 #[command(name = "mimnav-sim", version)]
 struct Args {
-    /// The stack's config file [default: /etc/mimnav/mimnav.toml if it exists, else built-in
-    /// defaults].
-    #[arg(long, env = "MIMNAV_CONFIG")]
-    config: Option<PathBuf>,
-    /// Override one config key, e.g. --set sim.seed=7 (repeatable).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    set: Vec<String>,
+    #[command(flatten)]
+    service: ServiceArgs,
     /// The world (default: sim.world).
     #[arg(long, value_name = "FILE")]
     world: Option<PathBuf>,
@@ -56,14 +52,14 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let mut set = args.set.clone();
+    let mut set = Vec::new();
     if args.lockstep {
         set.push("sim.lockstep=true".into());
     }
     if let Some(s) = args.seed {
         set.push(format!("sim.seed={s}"));
     }
-    let config = match Config::resolve(args.config.as_deref(), &set) {
+    let config = match args.service.load(&set) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("mimnav-sim: {e}");

@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::Parser;
 use iceoryx2::prelude::*;
+use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::{Config, ScanReturnConfig, VelodyneInput, toml_quote};
 use mimnav_shared::faults::Faults;
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, Svc, ValuePublisher};
@@ -29,13 +30,8 @@ use mimnav_velodyne::udp::{Port, UdpConfig, UdpSource};
 #[derive(Debug, Parser)]
 #[command(name = "mimnav-velodyne", version)]
 struct Args {
-    /// The stack's config file [default: /etc/mimnav/mimnav.toml if it exists, else built-in
-    /// defaults].
-    #[arg(long, env = "MIMNAV_CONFIG")]
-    config: Option<PathBuf>,
-    /// Override one config key, e.g. --set velodyne.rpm=900 (repeatable).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    set: Vec<String>,
+    #[command(flatten)]
+    service: ServiceArgs,
     /// Replay this capture instead of listening on UDP (sets velodyne.input = "pcap").
     #[arg(long, value_name = "FILE")]
     pcap: Option<PathBuf>,
@@ -46,7 +42,7 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let mut set = args.set.clone();
+    let mut set = Vec::new();
     if let Some(p) = &args.pcap {
         set.push("velodyne.input=\"pcap\"".into());
         set.push(format!(
@@ -54,7 +50,7 @@ fn main() -> ExitCode {
             toml_quote(&p.display().to_string())
         ));
     }
-    let config = match Config::resolve(args.config.as_deref(), &set) {
+    let config = match args.service.load(&set) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("mimnav-velodyne: {e}");

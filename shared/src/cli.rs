@@ -1,0 +1,26 @@
+//! The command-line options every service shares, so they read the same way everywhere.
+
+use std::path::PathBuf;
+
+use crate::config::{Config, ConfigError};
+
+/// `--config FILE` and `--set KEY=VALUE`, for `#[command(flatten)]` into a service's arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ServiceArgs {
+    /// The stack's config file [default: /etc/mimnav/mimnav.toml if it exists, else built-in
+    /// defaults].
+    #[arg(long, env = "MIMNAV_CONFIG")]
+    pub config: Option<PathBuf>,
+    /// Override one config key, e.g. --set velodyne.rpm=900 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl ServiceArgs {
+    /// The config these options name, with `extra` overrides applied after the `--set` ones.
+    pub fn load(&self, extra: &[String]) -> Result<Config, ConfigError> {
+        let mut sets = self.set.clone();
+        sets.extend_from_slice(extra);
+        Config::resolve(self.config.as_deref(), &sets)
+    }
+}
