@@ -522,6 +522,35 @@ pub fn truth_subscriber(node: &Node<Svc>) -> Result<TruthSubscriber, IpcError> {
     SliceSubscriber::open(node, topics::SIM_TRUTH)
 }
 
+/// Publisher of `map/layers`.
+pub type LayersPublisher = SlicePublisher<f32, topics::MapHeader>;
+/// Subscriber of `map/layers`.
+pub type LayersSubscriber = SliceSubscriber<f32, topics::MapHeader>;
+/// Publisher of `map/plan`.
+pub type PlanPublisher = SlicePublisher<topics::PlanCell, topics::MapHeader>;
+/// Subscriber of `map/plan`.
+pub type PlanSubscriber = SliceSubscriber<topics::PlanCell, topics::MapHeader>;
+
+/// Opens `map/layers` for publishing up to `values` values (layers × cells).
+pub fn layers_publisher(node: &Node<Svc>, values: usize) -> Result<LayersPublisher, IpcError> {
+    SlicePublisher::open(node, topics::MAP_LAYERS, values)
+}
+
+/// Opens `map/layers` for receiving.
+pub fn layers_subscriber(node: &Node<Svc>) -> Result<LayersSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::MAP_LAYERS)
+}
+
+/// Opens `map/plan` for publishing grids of up to `cells` cells.
+pub fn plan_publisher(node: &Node<Svc>, cells: usize) -> Result<PlanPublisher, IpcError> {
+    SlicePublisher::open(node, topics::MAP_PLAN, cells)
+}
+
+/// Opens `map/plan` for receiving.
+pub fn plan_subscriber(node: &Node<Svc>) -> Result<PlanSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::MAP_PLAN)
+}
+
 /// Opens `lidar/packets` for publishing raw datagrams.
 pub fn packets_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::RawPacket>, IpcError> {
     ValuePublisher::open(node, topics::LIDAR_PACKETS)

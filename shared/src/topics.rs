@@ -327,3 +327,65 @@ pub struct TruthHeader {
     /// Cell size, metres.
     pub cell_m: f32,
 }
+
+/// Topic of the multi-layer intensity map: `[f32]` with a [`MapHeader`].
+pub const MAP_LAYERS: &str = "mimnav/map/layers";
+/// Topic of the planning map: `[PlanCell]` with a [`MapHeader`].
+pub const MAP_PLAN: &str = "mimnav/map/plan";
+
+/// [`MapHeader::status`] bits.
+pub mod map_status {
+    /// No odometry has arrived yet: the glass memory cannot be placed.
+    pub const ODOM_MISSING: u8 = 1;
+    /// The latest odometry is older than allowed: the glass memory was not moved.
+    pub const ODOM_STALE: u8 = 2;
+}
+
+/// User header of `map/layers` and `map/plan`: which revolution and odometry a map was built
+/// from, and the grid.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/MapHeader/v1")]
+pub struct MapHeader {
+    /// Map sequence number.
+    pub seq: u64,
+    /// Sequence number of the revolution ([`PointsHeader::seq`]) it was built from.
+    pub source_seq: u64,
+    /// Sensor stamp of that revolution.
+    pub stamp_ns: u64,
+    /// `CLOCK_MONOTONIC` when that revolution's last packet was received, ns.
+    pub rx_mono_ns: u64,
+    /// Sequence number of the odometry used (0 with [`map_status::ODOM_MISSING`]).
+    pub odom_seq: u64,
+    /// Stamp of the odometry used.
+    pub odom_stamp_ns: u64,
+    /// Odometry pose used: x, m.
+    pub x: f64,
+    /// Odometry pose used: y, m.
+    pub y: f64,
+    /// Odometry pose used: heading, rad.
+    pub yaw: f64,
+    /// Cells per side.
+    pub cells: u32,
+    /// Cell size, m.
+    pub cell_m: f32,
+    /// Number of layers (in `map/layers`).
+    pub layers: u32,
+    /// Time the mapper spent on this revolution, µs.
+    pub processing_us: u32,
+    /// [`map_status`] bits.
+    pub status: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 7],
+}
+
+/// One cell of the planning map.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/PlanCell/v1")]
+pub struct PlanCell {
+    /// [`cell_class`].
+    pub class: u8,
+    /// Planning cost, 0–255 for 0–1: free 0, passable small, solid and glass 255.
+    pub cost: u8,
+}

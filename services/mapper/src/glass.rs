@@ -1,0 +1,297 @@
+//! Glass: detection in one revolution, and the memory that keeps it.
+//!
+//! Detection follows Algorithm 1 of `cartographer-glass.txt` along each near-horizontal laser's
+//! ring of returns (whose text is damaged; restated in DESIGN §6): a run of returns whose
+//! intensity reaches `threshold`, entered by a rise of at least `gradient` and left by a fall of
+//! at least `gradient` within `width` of azimuth, with equal ranges at both edges (the spike sits
+//! on one surface, not on the edge of an object). *Interpretation:* the width is measured in
+//! degrees rather than beams because the VLP-16's azimuth step changes with its rotation rate;
+//! a missing return counts as intensity 0 and range 0.
+//!
+//! The memory implements equations 6 and 7 of `mim-lidar-intensity-navigation.txt`: detected
+//! glass is stored in the odometry frame (I_FN^t = T · …) and joined with every later
+//! detection (I_FN^{t+1} ∪ I_FN^t). Beams that later pass through the pane never erase it (the
+//! lesson of `cartographer-glass.txt`); an entry expires only by age or distance. Gaps between
+//! detections along a pane, up to a configured length, are filled when the memory is drawn.
+
+use std::collections::HashMap;
+
+use mimnav_shared::grid::GridSpec;
+
+/// One return along a laser's ring.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RingReturn {
+    /// Azimuth, degrees.
+    pub azimuth_deg: f32,
+    /// Intensity (0 where there was no return).
+    pub intensity: f32,
+    /// Horizontal range, m (0 where there was no return).
+    pub range_m: f32,
+}
+
+/// Parameters of the spike detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpikeParams {
+    /// Minimum intensity of the spike's returns.
+    pub threshold: f32,
+    /// Minimum rise into and fall out of the spike.
+    pub gradient: f32,
+    /// Maximum width of the spike, degrees.
+    pub width_deg: f32,
+    /// Ranges at both edges agree within this, m.
+    pub range_tolerance_m: f32,
+}
+
+/// Marks in `out` (same length as `ring`) the returns that form intensity spikes.
+pub fn detect_spikes(ring: &[RingReturn], p: &SpikeParams, out: &mut Vec<bool>) {
+    out.clear();
+    out.resize(ring.len(), false);
+    let n = ring.len();
+    let mut k = 1;
+    while k + 1 < n {
+        let rise = ring[k].intensity - ring[k - 1].intensity;
+        if ring[k].intensity < p.threshold || rise < p.gradient {
+            k += 1;
+            continue;
+        }
+        // walk the run of high returns
+        let mut end = k;
+        while end + 1 < n && ring[end + 1].intensity >= p.threshold {
+            end += 1;
+        }
+        if end + 1 >= n {
+            break;
+        }
+        let fall = ring[end].intensity - ring[end + 1].intensity;
+        let mut width = (ring[end].azimuth_deg - ring[k].azimuth_deg).abs();
+        if width > 180.0 {
+            width = 360.0 - width;
+        }
+        let edges_agree =
+            (ring[k - 1].range_m - ring[end + 1].range_m).abs() <= p.range_tolerance_m;
+        if fall >= p.gradient && width <= p.width_deg && edges_agree {
+            for o in &mut out[k..=end] {
+                *o = true;
+            }
+        }
+        k = end + 1;
+    }
+}
+
+/// Detected glass, kept in the odometry frame.
+#[derive(Debug, Clone, Default)]
+pub struct GlassMemory {
+    /// Cell-sized keys in the odometry frame → (x, y, last seen ns).
+    entries: HashMap<(i64, i64), (f64, f64, u64)>,
+    cell_m: f64,
+}
+
+/// A 2-D pose in the odometry frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose2 {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+    /// Heading, rad.
+    pub yaw: f64,
+}
+
+impl Pose2 {
+    /// Robot frame → odometry frame (the T of equation 6).
+    pub fn to_odom(&self, x: f64, y: f64) -> (f64, f64) {
+        let (s, c) = self.yaw.sin_cos();
+        (self.x + c * x - s * y, self.y + s * x + c * y)
+    }
+
+    /// Odometry frame → robot frame.
+    pub fn to_robot(&self, x: f64, y: f64) -> (f64, f64) {
+        let (s, c) = self.yaw.sin_cos();
+        let (dx, dy) = (x - self.x, y - self.y);
+        (c * dx + s * dy, -s * dx + c * dy)
+    }
+}
+
+impl GlassMemory {
+    /// An empty memory that merges detections closer than `cell_m`.
+    pub fn new(cell_m: f64) -> Self {
+        GlassMemory {
+            entries: HashMap::new(),
+            cell_m: cell_m.max(1e-3),
+        }
+    }
+
+    /// Entries held.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when nothing is held.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Adds a detection at robot-frame (x, y) seen from `pose` at `now_ns` (equation 6).
+    pub fn add(&mut self, pose: &Pose2, x: f64, y: f64, now_ns: u64) {
+        let (ox, oy) = pose.to_odom(x, y);
+        let key = (
+            (ox / self.cell_m).floor() as i64,
+            (oy / self.cell_m).floor() as i64,
+        );
+        self.entries.insert(key, (ox, oy, now_ns));
+    }
+
+    /// Forgets entries older than `max_age_ns` or farther than `max_distance_m` from `pose`.
+    pub fn expire(&mut self, pose: &Pose2, now_ns: u64, max_age_ns: u64, max_distance_m: f64) {
+        self.entries.retain(|_, (x, y, t)| {
+            now_ns.saturating_sub(*t) <= max_age_ns
+                && (*x - pose.x).hypot(*y - pose.y) <= max_distance_m
+        });
+    }
+
+    /// Draws the memory into `cells` (true = glass) of `grid` around `pose` (equation 7),
+    /// filling gaps up to `gap_fill_m` between entries along a line.
+    pub fn draw(&self, pose: &Pose2, grid: GridSpec, gap_fill_m: f64, cells: &mut [bool]) {
+        let mut pts: Vec<(f64, f64)> = Vec::with_capacity(self.entries.len());
+        for (x, y, _) in self.entries.values() {
+            let (rx, ry) = pose.to_robot(*x, *y);
+            if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
+                cells[grid.index(r, c)] = true;
+                pts.push((rx, ry));
+            }
+        }
+        if gap_fill_m <= 0.0 || pts.len() < 2 {
+            return;
+        }
+        // join entries closer than the gap: a pane detected in pieces becomes one
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let step = f64::from(grid.cell_m) * 0.5;
+        for i in 0..pts.len() {
+            for j in i + 1..pts.len() {
+                if pts[j].0 - pts[i].0 > gap_fill_m {
+                    break;
+                }
+                let d = (pts[j].0 - pts[i].0).hypot(pts[j].1 - pts[i].1);
+                if d > gap_fill_m || d < 2.0 * step {
+                    continue;
+                }
+                let n = (d / step).ceil() as usize;
+                for k in 1..n {
+                    let t = k as f64 / n as f64;
+                    let x = pts[i].0 + t * (pts[j].0 - pts[i].0);
+                    let y = pts[i].1 + t * (pts[j].1 - pts[i].1);
+                    if let Some((r, c)) = grid.cell_of(x as f32, y as f32) {
+                        cells[grid.index(r, c)] = true;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring(intensities: &[f32], ranges: &[f32]) -> Vec<RingReturn> {
+        intensities
+            .iter()
+            .zip(ranges)
+            .enumerate()
+            .map(|(i, (&intensity, &range_m))| RingReturn {
+                azimuth_deg: i as f32 * 0.2,
+                intensity,
+                range_m,
+            })
+            .collect()
+    }
+
+    const P: SpikeParams = SpikeParams {
+        threshold: 100.0,
+        gradient: 30.0,
+        width_deg: 2.0,
+        range_tolerance_m: 0.3,
+    };
+
+    #[test]
+    fn a_spike_on_one_surface_is_glass() {
+        let r = ring(
+            &[20.0, 22.0, 180.0, 230.0, 170.0, 25.0, 21.0],
+            &[8.0, 8.0, 4.0, 4.0, 4.0, 8.1, 8.0],
+        );
+        let mut out = Vec::new();
+        detect_spikes(&r, &P, &mut out);
+        assert_eq!(out, [false, false, true, true, true, false, false]);
+    }
+
+    #[test]
+    fn a_wide_plateau_a_slow_rise_or_an_object_edge_is_not() {
+        let mut out = Vec::new();
+        // wider than 2°: a retro-reflective sign, not a specular spike
+        let wide: Vec<f32> = (0..20)
+            .map(|i| if (2..18).contains(&i) { 200.0 } else { 20.0 })
+            .collect();
+        detect_spikes(&ring(&wide, &[5.0; 20]), &P, &mut out);
+        assert!(out.iter().all(|&g| !g));
+        // no rise: below the gradient
+        detect_spikes(&ring(&[90.0, 105.0, 110.0, 95.0], &[5.0; 4]), &P, &mut out);
+        assert!(out.iter().all(|&g| !g));
+        // edges at different ranges: the spike sits on an object's edge
+        detect_spikes(&ring(&[20.0, 200.0, 20.0], &[3.0, 4.0, 9.0]), &P, &mut out);
+        assert!(out.iter().all(|&g| !g));
+    }
+
+    #[test]
+    fn memory_moves_with_odometry_and_is_not_erased() {
+        let grid = GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        };
+        let mut m = GlassMemory::new(0.05);
+        // seen 2 m ahead from the origin
+        let p0 = Pose2 {
+            x: 0.0,
+            y: 0.0,
+            yaw: 0.0,
+        };
+        m.add(&p0, 2.0, 0.0, 0);
+        // the robot drove 1 m forward and turned left 90°: the glass is now 1 m to its right
+        let p1 = Pose2 {
+            x: 1.0,
+            y: 0.0,
+            yaw: std::f64::consts::FRAC_PI_2,
+        };
+        let mut cells = vec![false; grid.len()];
+        m.draw(&p1, grid, 0.0, &mut cells);
+        let (r, c) = grid.cell_of(0.0, -1.0).expect("inside");
+        assert!(
+            cells[grid.index(r, c)],
+            "equation 6: moved by the robot's motion"
+        );
+        assert_eq!(cells.iter().filter(|&&g| g).count(), 1);
+        // expiry by age and distance only
+        m.expire(&p1, 1_000_000_000, 5_000_000_000, 8.0);
+        assert_eq!(m.len(), 1);
+        m.expire(&p1, 6_000_000_000, 5_000_000_000, 8.0);
+        assert!(m.is_empty());
+    }
+
+    #[test]
+    fn gaps_along_a_pane_are_filled() {
+        let grid = GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        };
+        let mut m = GlassMemory::new(0.05);
+        let p = Pose2::default();
+        m.add(&p, 3.0, -0.3, 0);
+        m.add(&p, 3.0, 0.3, 0);
+        m.add(&p, 3.0, 2.0, 0); // too far to join
+        let mut cells = vec![false; grid.len()];
+        m.draw(&p, grid, 0.8, &mut cells);
+        let (r, c) = grid.cell_of(3.0, 0.0).expect("inside");
+        assert!(cells[grid.index(r, c)], "the 0.6 m gap is filled");
+        let (r, c) = grid.cell_of(3.0, 1.2).expect("inside");
+        assert!(!cells[grid.index(r, c)], "the 1.7 m gap is not");
+    }
+}

@@ -1,0 +1,455 @@
+//! The mimnav map builder as a library: from one revolution of points (and the odometry) to the
+//! multi-layer intensity map, the class of every cell and the planning cost. No IPC.
+//!
+//! The equations are those of `mim-lidar-intensity-navigation.txt` (§IV), restated in DESIGN §6:
+//! - eq. 1: layer j of cell (r, c) is I_j = Σ intensity / g² over the points whose height (or
+//!   elevation) lies in the layer's interval H_j; intensities are normalised by the full scale R;
+//! - eq. 2: the layers stacked are the multi-layer map;
+//! - eq. 3–5: a cell whose three main layers (below, above, zero) all stay at or below Γ is a
+//!   false-positive obstacle (passable); otherwise a true positive (solid). As DESIGN §6 says, Γ is
+//!   compared with the per-cell **mean** intensity, which does not grow with point density;
+//! - eq. 6–7: glass (false negatives) from the z = 0 and z = −ε layers, kept in a memory that
+//!   moves with the odometry ([`glass`]).
+//!
+//! Beyond the paper: in dual-return mode a return that another return of the same firing lies
+//! behind (by more than a cell) shows a beam that went *through* the cell. A cell with several
+//! returns none of which a beam passed through is solid whatever its intensity — an opaque wall
+//! seen at a grazing angle returns little light but never lets a beam through.
+#![deny(missing_docs)]
+
+pub mod glass;
+
+use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::topics::{Point, cell_class, return_type};
+
+use crate::glass::{GlassMemory, Pose2, RingReturn, SpikeParams, detect_spikes};
+
+/// Everything the mapper needs to know.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapperParams {
+    /// The grid.
+    pub grid: GridSpec,
+    /// The layers (at least `below`, `above`, `zero`, `minus_eps`).
+    pub layers: Vec<LayerConfig>,
+    /// Height of the sensor above the ground, m.
+    pub sensor_height_m: f64,
+    /// Points lower than this above the ground are ground, m.
+    pub ground_clearance_m: f64,
+    /// Intensity full scale R.
+    pub full_scale: f32,
+    /// Γ, normalised.
+    pub gamma: f32,
+    /// Returns with none passed through that make a cell solid.
+    pub min_returns_solid: u16,
+    /// Glass spike detector.
+    pub spike: SpikeParams,
+    /// Glass memory: age limit, ns.
+    pub glass_memory_ns: u64,
+    /// Glass memory: distance limit, m.
+    pub glass_memory_m: f64,
+    /// Glass memory: gap fill, m.
+    pub glass_gap_fill_m: f64,
+    /// Cost of a passable cell, 0–255.
+    pub passable_cost: u8,
+}
+
+impl MapperParams {
+    /// Parameters from the stack's config.
+    pub fn from_config(config: &Config) -> Self {
+        let m = &config.mapper;
+        MapperParams {
+            grid: config.map.grid(),
+            layers: m.layers_for(&config.robot),
+            sensor_height_m: config.robot.sensor_height_m,
+            ground_clearance_m: m.ground_clearance_m,
+            full_scale: m.full_scale as f32,
+            gamma: m.gamma as f32,
+            min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
+            spike: SpikeParams {
+                threshold: m.glass_intensity as f32,
+                gradient: m.glass_gradient as f32,
+                width_deg: m.glass_width_deg as f32,
+                range_tolerance_m: m.glass_range_tolerance_m as f32,
+            },
+            glass_memory_ns: (m.glass_memory_s * 1e9) as u64,
+            glass_memory_m: m.glass_memory_m,
+            glass_gap_fill_m: m.glass_gap_fill_m,
+            passable_cost: (m.passable_cost * 255.0).round() as u8,
+        }
+    }
+}
+
+impl Default for MapperParams {
+    fn default() -> Self {
+        MapperParams::from_config(&Config::default())
+    }
+}
+
+/// The odometry a revolution is mapped with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OdomInput {
+    /// Recent odometry: the glass memory moves with it.
+    Fresh(Pose2),
+    /// Odometry too old to trust: the glass memory stays where it was.
+    Stale,
+    /// None yet.
+    Missing,
+}
+
+/// What one update found.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct UpdateStats {
+    /// Points binned into at least one layer.
+    pub binned: u32,
+    /// Ground points.
+    pub ground: u32,
+    /// Points outside the grid.
+    pub outside: u32,
+    /// Glass cells detected in this revolution.
+    pub glass_detected: u32,
+    /// Entries in the glass memory.
+    pub glass_memory: u32,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct LayerBounds {
+    elevation: bool,
+    low: f32,
+    high: f32,
+}
+
+/// The map builder's state: per-revolution buffers and the glass memory.
+#[derive(Debug)]
+pub struct Mapper {
+    params: MapperParams,
+    bounds: Vec<LayerBounds>,
+    roles: [usize; 4],
+    count: Vec<u16>,
+    sum: Vec<f32>,
+    hits: Vec<u16>,
+    passed: Vec<u16>,
+    glass_now: Vec<bool>,
+    glass_drawn: Vec<bool>,
+    reach: Vec<f32>,
+    cell_range: Vec<f32>,
+    cell_bin: Vec<u16>,
+    classes: Vec<u8>,
+    cost: Vec<u8>,
+    memory: GlassMemory,
+    last_pose: Option<Pose2>,
+    rings: Vec<Vec<(RingReturn, u32)>>,
+    spikes: Vec<bool>,
+}
+
+/// Azimuth bins of the reach table (for observed-free space): 0.5°.
+const REACH_BINS: usize = 720;
+
+fn role(layers: &[LayerConfig], name: &str) -> usize {
+    layers.iter().position(|l| l.name == name).unwrap_or(0)
+}
+
+impl Mapper {
+    /// A mapper with empty buffers.
+    pub fn new(params: MapperParams) -> Self {
+        let n2 = params.grid.len();
+        let m = params.layers.len();
+        let bounds = params
+            .layers
+            .iter()
+            .map(|l| match l.unit {
+                LayerUnit::M => LayerBounds {
+                    elevation: false,
+                    low: l.low as f32,
+                    high: l.high as f32,
+                },
+                LayerUnit::Deg => LayerBounds {
+                    elevation: true,
+                    low: (l.low as f32).to_radians().sin(),
+                    high: (l.high as f32).to_radians().sin(),
+                },
+            })
+            .collect();
+        let roles = [
+            role(&params.layers, "below"),
+            role(&params.layers, "above"),
+            role(&params.layers, "zero"),
+            role(&params.layers, "minus_eps"),
+        ];
+        let mut cell_range = Vec::with_capacity(n2);
+        let mut cell_bin = Vec::with_capacity(n2);
+        for r in 0..params.grid.cells {
+            for c in 0..params.grid.cells {
+                let (x, y) = params.grid.center_of(r, c);
+                cell_range.push(x.hypot(y));
+                let az = (-y).atan2(x).to_degrees().rem_euclid(360.0);
+                cell_bin.push(((az * 2.0) as usize % REACH_BINS) as u16);
+            }
+        }
+        Mapper {
+            bounds,
+            roles,
+            count: vec![0; m * n2],
+            sum: vec![0.0; m * n2],
+            hits: vec![0; n2],
+            passed: vec![0; n2],
+            glass_now: vec![false; n2],
+            glass_drawn: vec![false; n2],
+            reach: vec![0.0; REACH_BINS],
+            cell_range,
+            cell_bin,
+            classes: vec![cell_class::UNKNOWN; n2],
+            cost: vec![0; n2],
+            memory: GlassMemory::new(f64::from(params.grid.cell_m)),
+            last_pose: None,
+            rings: vec![Vec::new(); 16],
+            spikes: Vec::new(),
+            params,
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &MapperParams {
+        &self.params
+    }
+
+    /// Class of every cell ([`cell_class`]), row-major.
+    pub fn classes(&self) -> &[u8] {
+        &self.classes
+    }
+
+    /// Planning cost of every cell, 0–255.
+    pub fn cost(&self) -> &[u8] {
+        &self.cost
+    }
+
+    /// Number of layers.
+    pub fn layer_count(&self) -> usize {
+        self.bounds.len()
+    }
+
+    /// Layer j as the paper's I_j (eq. 1): Σ (intensity / R) / g² per cell.
+    pub fn layer_values(&self, j: usize, out: &mut Vec<f32>) {
+        let n2 = self.params.grid.len();
+        let g2 = self.params.grid.cell_m * self.params.grid.cell_m;
+        let scale = 1.0 / (self.params.full_scale * g2);
+        out.clear();
+        out.extend(self.sum[j * n2..(j + 1) * n2].iter().map(|s| s * scale));
+    }
+
+    /// Mean normalised intensity of layer j in cell i (0 without points).
+    #[inline]
+    fn mean(&self, j: usize, i: usize) -> f32 {
+        let n2 = self.params.grid.len();
+        let c = self.count[j * n2 + i];
+        if c == 0 {
+            0.0
+        } else {
+            self.sum[j * n2 + i] / (f32::from(c) * self.params.full_scale)
+        }
+    }
+
+    /// Points in layer j of cell i.
+    pub fn layer_count_at(&self, j: usize, i: usize) -> u16 {
+        self.count[j * self.params.grid.len() + i]
+    }
+
+    /// Maps one revolution. `now_ns` is the revolution's stamp (ages the glass memory).
+    pub fn update(&mut self, points: &[Point], odom: OdomInput, now_ns: u64) -> UpdateStats {
+        let mut stats = UpdateStats::default();
+        self.count.fill(0);
+        self.sum.fill(0.0);
+        self.hits.fill(0);
+        self.passed.fill(0);
+        self.glass_now.fill(false);
+        self.glass_drawn.fill(false);
+        self.reach.fill(0.0);
+        for r in &mut self.rings {
+            r.clear();
+        }
+        let grid = self.params.grid;
+        let n2 = grid.len();
+        let ground_z = -(self.params.sensor_height_m - self.params.ground_clearance_m) as f32;
+        let (below, above, zero, minus) =
+            (self.roles[0], self.roles[1], self.roles[2], self.roles[3]);
+        let zero_b = self.bounds[zero];
+        for (k, p) in points.iter().enumerate() {
+            let horizontal = p.x.hypot(p.y);
+            let bin = usize::from(p.azimuth_cdeg / 50) % REACH_BINS;
+            if horizontal > self.reach[bin] {
+                self.reach[bin] = horizontal;
+            }
+            let d = p.distance_m().max(1e-3);
+            let sin_el = p.z / d;
+            let strongest = p.return_type & return_type::STRONGEST != 0;
+            if strongest && in_layer(&zero_b, p.z, sin_el) {
+                if let Some(ring) = self.rings.get_mut(usize::from(p.laser_id)) {
+                    ring.push((
+                        RingReturn {
+                            azimuth_deg: f32::from(p.azimuth_cdeg) * 0.01,
+                            intensity: f32::from(p.intensity),
+                            range_m: horizontal,
+                        },
+                        k as u32,
+                    ));
+                }
+            }
+            if p.z < ground_z {
+                stats.ground += 1;
+                continue;
+            }
+            let Some((r, c)) = grid.cell_of(p.x, p.y) else {
+                stats.outside += 1;
+                continue;
+            };
+            let i = grid.index(r, c);
+            let mut any = false;
+            for (j, b) in self.bounds.iter().enumerate() {
+                if in_layer(b, p.z, sin_el) {
+                    self.count[j * n2 + i] = self.count[j * n2 + i].saturating_add(1);
+                    self.sum[j * n2 + i] += f32::from(p.intensity);
+                    any = true;
+                }
+            }
+            if any {
+                stats.binned += 1;
+                self.hits[i] = self.hits[i].saturating_add(1);
+            }
+            // a dual pair that differs (last, then strongest, same firing): the nearer return
+            // let the beam through
+            if p.return_type == return_type::LAST {
+                if let Some(q) = points.get(k + 1) {
+                    if q.return_type == return_type::STRONGEST
+                        && q.laser_id == p.laser_id
+                        && q.azimuth_cdeg == p.azimuth_cdeg
+                    {
+                        let (near, far) = if q.distance_raw < p.distance_raw {
+                            (q, p)
+                        } else {
+                            (p, q)
+                        };
+                        if far.distance_m() - near.distance_m() > 1.5 * grid.cell_m {
+                            if let Some((nr, nc)) = grid.cell_of(near.x, near.y) {
+                                let ni = grid.index(nr, nc);
+                                self.passed[ni] = self.passed[ni].saturating_add(1);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // glass in this revolution: spikes along the near-horizontal rings (Algorithm 1) in cells
+        // the −ε layer does not see (equation 6's layer difference)
+        // rings stay in firing order: the azimuth grows (wrapping at 360°) along them
+        let mut glass_cells: Vec<usize> = Vec::new();
+        let mut padded: Vec<RingReturn> = Vec::new();
+        let mut index: Vec<Option<u32>> = Vec::new();
+        for ring in &self.rings {
+            if ring.len() < 3 {
+                continue;
+            }
+            padded.clear();
+            index.clear();
+            for (n, (rr, k)) in ring.iter().enumerate() {
+                if n > 0 && (rr.azimuth_deg - ring[n - 1].0.azimuth_deg).rem_euclid(360.0) > 0.5 {
+                    // a firing without a return: intensity 0, range 0
+                    padded.push(RingReturn {
+                        azimuth_deg: rr.azimuth_deg - 0.25,
+                        intensity: 0.0,
+                        range_m: 0.0,
+                    });
+                    index.push(None);
+                }
+                padded.push(*rr);
+                index.push(Some(*k));
+            }
+            detect_spikes(&padded, &self.params.spike, &mut self.spikes);
+            for (n, g) in self.spikes.iter().enumerate() {
+                if !g {
+                    continue;
+                }
+                let Some(k) = index[n] else { continue };
+                let p = &points[k as usize];
+                if let Some((r, c)) = grid.cell_of(p.x, p.y) {
+                    let i = grid.index(r, c);
+                    if self.count[minus * n2 + i] == 0 {
+                        glass_cells.push(i);
+                    }
+                }
+            }
+        }
+        for &i in &glass_cells {
+            self.glass_now[i] = true;
+        }
+        stats.glass_detected = self.glass_now.iter().filter(|&&g| g).count() as u32;
+        // the memory (equations 6 and 7)
+        match odom {
+            OdomInput::Fresh(pose) => {
+                for &i in &glass_cells {
+                    let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+                    self.memory.add(&pose, f64::from(x), f64::from(y), now_ns);
+                }
+                self.memory.expire(
+                    &pose,
+                    now_ns,
+                    self.params.glass_memory_ns,
+                    self.params.glass_memory_m,
+                );
+                self.last_pose = Some(pose);
+            }
+            OdomInput::Stale | OdomInput::Missing => {}
+        }
+        if let Some(pose) = self.last_pose {
+            self.memory.draw(
+                &pose,
+                grid,
+                self.params.glass_gap_fill_m,
+                &mut self.glass_drawn,
+            );
+        }
+        stats.glass_memory = self.memory.len() as u32;
+        // classes (equations 3–5) and cost
+        let gamma = self.params.gamma;
+        for i in 0..n2 {
+            let class = if self.glass_now[i] {
+                cell_class::GLASS
+            } else if self.hits[i] > 0 {
+                let m = self
+                    .mean(below, i)
+                    .max(self.mean(above, i))
+                    .max(self.mean(zero, i));
+                let opaque = self.passed[i] == 0 && self.hits[i] >= self.params.min_returns_solid;
+                if m <= gamma && !opaque {
+                    cell_class::PASSABLE
+                } else {
+                    cell_class::SOLID
+                }
+            } else if self.cell_range[i] < self.reach[usize::from(self.cell_bin[i])] + grid.cell_m {
+                cell_class::FREE
+            } else {
+                cell_class::UNKNOWN
+            };
+            let class = if self.glass_drawn[i] && class != cell_class::SOLID {
+                cell_class::GLASS
+            } else {
+                class
+            };
+            self.classes[i] = class;
+            self.cost[i] = match class {
+                cell_class::SOLID | cell_class::GLASS => 255,
+                cell_class::PASSABLE => self.params.passable_cost,
+                _ => 0,
+            };
+        }
+        stats
+    }
+}
+
+#[inline]
+fn in_layer(b: &LayerBounds, z: f32, sin_el: f32) -> bool {
+    let v = if b.elevation { sin_el } else { z };
+    v >= b.low && v < b.high
+}
+
+#[cfg(test)]
+mod tests;

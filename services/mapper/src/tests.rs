@@ -1,0 +1,231 @@
+//! Hand-made point sets for each equation and each class.
+
+use super::*;
+
+fn pt(x: f32, y: f32, z: f32, intensity: u8, laser_id: u8, rt: u8) -> Point {
+    let d = (x * x + y * y + z * z).sqrt();
+    let az = ((-y).atan2(x).to_degrees().rem_euclid(360.0) * 100.0).round() as u16 % 36000;
+    Point {
+        x,
+        y,
+        z,
+        time_offset_ns: 0,
+        distance_raw: (d / 0.002).round() as u16,
+        azimuth_cdeg: az,
+        intensity,
+        laser_id,
+        ring: 0,
+        return_type: rt,
+    }
+}
+
+fn mapper() -> Mapper {
+    Mapper::new(MapperParams::default())
+}
+
+fn class_at(m: &Mapper, x: f32, y: f32) -> u8 {
+    let g = m.params().grid;
+    let (r, c) = g.cell_of(x, y).expect("inside");
+    m.classes()[g.index(r, c)]
+}
+
+const BOTH: u8 = return_type::BOTH;
+
+#[test]
+fn equation_1_sums_normalised_intensity_over_the_cell_area() {
+    let mut m = mapper();
+    // three points in the "above" layer of one cell (z = 0.1 m above the sensor)
+    let pts: Vec<Point> = (0..3)
+        .map(|k| pt(2.01 + 0.01 * k as f32, 1.01, 0.1, 50, 3, BOTH))
+        .collect();
+    m.update(&pts, OdomInput::Missing, 0);
+    let above = m
+        .params()
+        .layers
+        .iter()
+        .position(|l| l.name == "above")
+        .expect("layer");
+    let mut v = Vec::new();
+    m.layer_values(above, &mut v);
+    let g = m.params().grid;
+    let (r, c) = g.cell_of(2.02, 1.01).expect("inside");
+    let expected = 3.0 * 0.5 / (0.05 * 0.05);
+    assert!(
+        (v[g.index(r, c)] - expected).abs() < 1e-2,
+        "{} vs {expected}",
+        v[g.index(r, c)]
+    );
+    assert_eq!(v.iter().filter(|&&x| x > 0.0).count(), 1);
+}
+
+#[test]
+fn equations_3_to_5_split_solid_and_passable_by_mean_intensity() {
+    let mut m = mapper();
+    // bright cell: solid; dim cell: passable — the dim one has many more points (it is nearer),
+    // which would win with the paper's sums; the mean keeps it passable
+    let mut pts = vec![
+        pt(3.0, 0.0, 0.05, 60, 3, BOTH),
+        pt(3.01, 0.01, -0.1, 55, 12, BOTH),
+    ];
+    for k in 0..3 {
+        pts.push(pt(
+            1.0 + 0.01 * k as f32,
+            0.5,
+            -0.2,
+            8,
+            10,
+            return_type::STRONGEST,
+        ));
+        pts.push(pt(2.5, 0.5, -0.3, 30, 10, return_type::LAST)); // the beam went on behind it
+    }
+    // put each last return before its strongest, as the driver emits a differing pair
+    let mut ordered = vec![pts[0], pts[1]];
+    for k in 0..3 {
+        ordered.push(pts[3 + 2 * k]);
+        ordered.push(pts[2 + 2 * k]);
+    }
+    m.update(&ordered, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 3.0, 0.0), cell_class::SOLID);
+    assert_eq!(class_at(&m, 1.0, 0.5), cell_class::PASSABLE);
+    let g = m.params().grid;
+    let (r, c) = g.cell_of(3.0, 0.0).expect("inside");
+    assert_eq!(m.cost()[g.index(r, c)], 255);
+    let (r, c) = g.cell_of(1.0, 0.5).expect("inside");
+    assert_eq!(m.cost()[g.index(r, c)], m.params().passable_cost);
+}
+
+#[test]
+fn a_dim_cell_no_beam_passes_through_is_solid() {
+    let mut m = mapper();
+    // a wall seen at a grazing angle: dim, but many returns and none with anything behind
+    let pts: Vec<Point> = (0..6)
+        .map(|k| pt(2.0 + 0.005 * k as f32, 2.0, 0.05 * k as f32, 10, 3, BOTH))
+        .collect();
+    m.update(&pts, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 2.0), cell_class::SOLID);
+    // with fewer returns than min_returns_solid it stays passable by equation 3
+    let mut m = mapper();
+    m.update(&pts[..2], OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
+}
+
+#[test]
+fn ground_points_do_not_make_obstacles_and_free_space_is_where_beams_reached() {
+    let mut m = mapper();
+    // the sensor is 0.5 m up: ground at z = -0.5
+    // one ring of the -15° laser at the VLP-16's 0.2° azimuth step
+    let pts: Vec<Point> = (0..1800)
+        .map(|k| {
+            let a = (k as f32 * 0.2).to_radians();
+            pt(3.0 * a.cos(), 3.0 * a.sin(), -0.5, 12, 0, BOTH)
+        })
+        .collect();
+    m.update(&pts, OdomInput::Missing, 0);
+    assert_eq!(
+        class_at(&m, 3.0, 0.0),
+        cell_class::FREE,
+        "ground is not an obstacle"
+    );
+    assert_eq!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::FREE,
+        "beams passed over it"
+    );
+    assert_eq!(
+        class_at(&m, 4.5, 0.0),
+        cell_class::UNKNOWN,
+        "no beam reached it"
+    );
+}
+
+/// A ring of the −1° laser (id 14) at 4 m with a glass spike straight ahead, and optionally
+/// returns of the −3° laser (id 12) at the same place.
+fn glass_scene(with_minus_eps: bool) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for k in -40i32..=40 {
+        let az = k as f32 * 0.2;
+        let (s, c) = az.to_radians().sin_cos();
+        let spike = k.abs() <= 3;
+        let (range, intensity) = if spike { (4.0, 200) } else { (8.0 / c, 30) };
+        pts.push(pt(
+            range * c,
+            -range * s,
+            -range * 1f32.to_radians().tan(),
+            intensity,
+            14,
+            BOTH,
+        ));
+        if with_minus_eps && spike {
+            pts.push(pt(
+                range * c,
+                -range * s,
+                -range * 3f32.to_radians().tan(),
+                40,
+                12,
+                BOTH,
+            ));
+        }
+    }
+    pts
+}
+
+#[test]
+fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
+    let mut m = mapper();
+    let s = m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
+    assert!(s.glass_detected > 0);
+    assert_eq!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
+    let g = m.params().grid;
+    for (i, &class) in m.classes().iter().enumerate() {
+        if class == cell_class::GLASS {
+            let (x, y) = g.center_of(i / g.cells, i % g.cells);
+            assert!(
+                (x - 4.0).abs() < 0.1 && y.abs() < 0.1,
+                "glass only at the spike: {x} {y}"
+            );
+        }
+    }
+    let mut m = mapper();
+    let s = m.update(&glass_scene(true), OdomInput::Fresh(Pose2::default()), 0);
+    assert_eq!(
+        s.glass_detected, 0,
+        "an opaque bright object is seen by the −3° laser too"
+    );
+}
+
+#[test]
+fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() {
+    let mut m = mapper();
+    m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
+    // the robot moved 1 m forward; the pane is now seen only obliquely: beams pass through
+    let moved = Pose2 {
+        x: 1.0,
+        y: 0.0,
+        yaw: 0.0,
+    };
+    let through: Vec<Point> = (0..50)
+        .map(|k| pt(7.0, -1.0 + 0.04 * k as f32, -0.12, 30, 14, BOTH))
+        .collect();
+    let s = m.update(&through, OdomInput::Fresh(moved), 100_000_000);
+    assert_eq!(s.glass_detected, 0);
+    assert_eq!(
+        class_at(&m, 3.0, 0.0),
+        cell_class::GLASS,
+        "kept, 1 m nearer in the robot frame"
+    );
+    assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
+    // stale odometry: the memory is not moved
+    let s = m.update(&through, OdomInput::Stale, 200_000_000);
+    assert!(s.glass_memory > 0);
+    assert_eq!(class_at(&m, 3.0, 0.0), cell_class::GLASS);
+}
+
+#[test]
+fn glass_memory_expires_by_age() {
+    let mut p = MapperParams::default();
+    p.glass_memory_ns = 1_000_000_000;
+    let mut m = Mapper::new(p);
+    m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
+    m.update(&[], OdomInput::Fresh(Pose2::default()), 2_000_000_000);
+    assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
+}
