@@ -158,9 +158,9 @@ impl Default for MapperConfig {
         MapperConfig {
             layers: Vec::new(),
             full_scale: 100.0,
-            gamma: 0.2,
+            gamma: 0.3,
             ground_clearance_m: 0.08,
-            min_returns_solid: 4,
+            min_returns_solid: 1,
             glass_intensity: 100.0,
             glass_gradient: 30.0,
             glass_width_deg: 8.0,
@@ -177,14 +177,14 @@ impl Default for MapperConfig {
 
 impl MapperConfig {
     /// The layers in force: the configured ones, or the paper's four for `robot`:
-    /// below = [−(sensor height − ground clearance), 0) m, above = [0, robot top − sensor + 0.3) m,
+    /// below = [−(sensor height − ground clearance), 0) m, above = [0, robot top − sensor + 1) m,
     /// zero = [−1.5°, 1.5°) (the ±1° lasers), minus_eps = [−4°, −2°) (the −3° laser).
     pub fn layers_for(&self, robot: &RobotProfile) -> Vec<LayerConfig> {
         if !self.layers.is_empty() {
             return self.layers.clone();
         }
         let below = -(robot.sensor_height_m - self.ground_clearance_m);
-        let above = (robot.height_m - robot.sensor_height_m).max(0.0) + 0.3;
+        let above = (robot.height_m - robot.sensor_height_m).max(0.0) + 1.0;
         let l = |name: &str, unit, low, high| LayerConfig {
             name: name.into(),
             unit,

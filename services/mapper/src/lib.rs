@@ -12,12 +12,17 @@
 //!   moves with the odometry ([`glass`]).
 //!
 //! Beyond the paper: in dual-return mode a return that another return of the same firing lies
-//! behind (by more than a cell) shows a beam that went *through* the cell. A cell with several
-//! returns none of which a beam passed through is solid whatever its intensity — an opaque wall
-//! seen at a grazing angle returns little light but never lets a beam through.
+//! behind (by more than a cell) shows a beam that went *through* the cell, and a firing with one
+//! echo only (both blocks equal) shows a beam stopped by one surface. A cell with several
+//! single-echo returns and none a beam passed through is solid whatever its intensity — an opaque
+//! wall seen at a grazing angle returns little light but never lets a beam through. Likewise a weak
+//! echo less than 0.5 m behind a bright echo (above Γ) of the same firing comes from inside the
+//! same object, and its cell is solid. (Single-return sensors give none of these cues: then
+//! equation 3 alone decides.)
 #![deny(missing_docs)]
 
 pub mod glass;
+pub mod score;
 
 use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
 use mimnav_shared::grid::GridSpec;
@@ -86,11 +91,22 @@ impl Default for MapperParams {
     }
 }
 
+/// Odometry: where the robot is and how it moves.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Odom {
+    /// Pose in the odometry frame at the end of the revolution.
+    pub pose: Pose2,
+    /// Forward speed, m/s.
+    pub v: f64,
+    /// Turn rate, rad/s.
+    pub omega: f64,
+}
+
 /// The odometry a revolution is mapped with.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OdomInput {
-    /// Recent odometry: the glass memory moves with it.
-    Fresh(Pose2),
+    /// Recent odometry: points are de-skewed with its velocity and the glass memory moves with it.
+    Fresh(Odom),
     /// Odometry too old to trust: the glass memory stays where it was.
     Stale,
     /// None yet.
@@ -128,7 +144,9 @@ pub struct Mapper {
     count: Vec<u16>,
     sum: Vec<f32>,
     hits: Vec<u16>,
+    single: Vec<u16>,
     passed: Vec<u16>,
+    inside: Vec<u16>,
     glass_now: Vec<bool>,
     glass_drawn: Vec<bool>,
     reach: Vec<f32>,
@@ -141,6 +159,10 @@ pub struct Mapper {
     rings: Vec<Vec<(RingReturn, u32)>>,
     spikes: Vec<bool>,
 }
+
+/// A weak echo at most this far behind a bright echo of the same firing is the inside of the
+/// same object (a dense bush returns its front brightly and a trace from within), m.
+const INSIDE_M: f32 = 0.5;
 
 /// Azimuth bins of the reach table (for observed-free space): 0.5°.
 const REACH_BINS: usize = 720;
@@ -192,7 +214,9 @@ impl Mapper {
             count: vec![0; m * n2],
             sum: vec![0.0; m * n2],
             hits: vec![0; n2],
+            single: vec![0; n2],
             passed: vec![0; n2],
+            inside: vec![0; n2],
             glass_now: vec![false; n2],
             glass_drawn: vec![false; n2],
             reach: vec![0.0; REACH_BINS],
@@ -249,6 +273,18 @@ impl Mapper {
         }
     }
 
+    /// Diagnostics of cell i: (returns, single-echo returns, returns a beam passed through,
+    /// mean normalised intensity of below, above, zero).
+    pub fn cell_evidence(&self, i: usize) -> (u16, u16, u16, [f32; 3]) {
+        let (b, a, z) = (self.roles[0], self.roles[1], self.roles[2]);
+        (
+            self.hits[i],
+            self.single[i],
+            self.passed[i],
+            [self.mean(b, i), self.mean(a, i), self.mean(z, i)],
+        )
+    }
+
     /// Points in layer j of cell i.
     pub fn layer_count_at(&self, j: usize, i: usize) -> u16 {
         self.count[j * self.params.grid.len() + i]
@@ -260,7 +296,9 @@ impl Mapper {
         self.count.fill(0);
         self.sum.fill(0.0);
         self.hits.fill(0);
+        self.single.fill(0);
         self.passed.fill(0);
+        self.inside.fill(0);
         self.glass_now.fill(false);
         self.glass_drawn.fill(false);
         self.reach.fill(0.0);
@@ -273,9 +311,36 @@ impl Mapper {
         let (below, above, zero, minus) =
             (self.roles[0], self.roles[1], self.roles[2], self.roles[3]);
         let zero_b = self.bounds[zero];
-        for (k, p) in points.iter().enumerate() {
+        // De-skew: a revolution takes 0.05–0.2 s, in which a turning robot rotates by up to
+        // several degrees. Each point moves into the robot frame at the revolution's end, from
+        // its own firing time, with the odometry's (v, ω) (small-angle rotation, exact enough
+        // below 0.3 rad).
+        let (v, omega) = match odom {
+            OdomInput::Fresh(o) => (o.v as f32, o.omega as f32),
+            _ => (0.0, 0.0),
+        };
+        let t_end = points.last().map_or(0, |p| p.time_offset_ns);
+        let gamma_abs = self.params.gamma * self.params.full_scale;
+        let deskew = v != 0.0 || omega != 0.0;
+        for (k, p0) in points.iter().enumerate() {
+            let mut p = *p0;
+            let mut az_cdeg = p.azimuth_cdeg;
+            let (mut sin_t, mut cos_t, mut shift) = (0.0f32, 1.0f32, 0.0f32);
+            if deskew {
+                let dt = t_end.saturating_sub(p.time_offset_ns) as f32 * 1e-9;
+                let th = omega * dt;
+                (sin_t, cos_t, shift) = (th, 1.0 - 0.5 * th * th, v * dt);
+                az_cdeg = ((i32::from(az_cdeg) + (th.to_degrees() * 100.0) as i32)
+                    .rem_euclid(36000)) as u16;
+            }
+            let undistort = |q: &Point| -> (f32, f32) {
+                let x = q.x - shift;
+                (cos_t * x + sin_t * q.y, -sin_t * x + cos_t * q.y)
+            };
+            (p.x, p.y) = undistort(p0);
+            let p = &p;
             let horizontal = p.x.hypot(p.y);
-            let bin = usize::from(p.azimuth_cdeg / 50) % REACH_BINS;
+            let bin = usize::from(az_cdeg / 50) % REACH_BINS;
             if horizontal > self.reach[bin] {
                 self.reach[bin] = horizontal;
             }
@@ -292,6 +357,38 @@ impl Mapper {
                         },
                         k as u32,
                     ));
+                }
+            }
+            // a dual pair that differs (last, then strongest, same firing): the nearer return
+            // let the beam through
+            if p.return_type == return_type::LAST {
+                if let Some(q) = points.get(k + 1) {
+                    if q.return_type == return_type::STRONGEST
+                        && q.laser_id == p.laser_id
+                        && q.azimuth_cdeg == p.azimuth_cdeg
+                    {
+                        // both returns of a pair share the firing time, so the de-skew
+                        let q_nearer = q.distance_raw < p.distance_raw;
+                        let (near, near_i, far) = if q_nearer {
+                            (undistort(q), q.intensity, (p.x, p.y))
+                        } else {
+                            ((p.x, p.y), p.intensity, undistort(q))
+                        };
+                        let gap = (q.distance_m() - p.distance_m()).abs();
+                        if gap > 1.5 * grid.cell_m {
+                            if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
+                                let ni = grid.index(nr, nc);
+                                self.passed[ni] = self.passed[ni].saturating_add(1);
+                            }
+                        }
+                        // a weak echo just behind a bright one is the inside of the same object
+                        if gap <= INSIDE_M && f32::from(near_i) > gamma_abs {
+                            if let Some((fr, fc)) = grid.cell_of(far.0, far.1) {
+                                let fi = grid.index(fr, fc);
+                                self.inside[fi] = self.inside[fi].saturating_add(1);
+                            }
+                        }
+                    }
                 }
             }
             if p.z < ground_z {
@@ -314,27 +411,8 @@ impl Mapper {
             if any {
                 stats.binned += 1;
                 self.hits[i] = self.hits[i].saturating_add(1);
-            }
-            // a dual pair that differs (last, then strongest, same firing): the nearer return
-            // let the beam through
-            if p.return_type == return_type::LAST {
-                if let Some(q) = points.get(k + 1) {
-                    if q.return_type == return_type::STRONGEST
-                        && q.laser_id == p.laser_id
-                        && q.azimuth_cdeg == p.azimuth_cdeg
-                    {
-                        let (near, far) = if q.distance_raw < p.distance_raw {
-                            (q, p)
-                        } else {
-                            (p, q)
-                        };
-                        if far.distance_m() - near.distance_m() > 1.5 * grid.cell_m {
-                            if let Some((nr, nc)) = grid.cell_of(near.x, near.y) {
-                                let ni = grid.index(nr, nc);
-                                self.passed[ni] = self.passed[ni].saturating_add(1);
-                            }
-                        }
-                    }
+                if p.return_type == return_type::BOTH {
+                    self.single[i] = self.single[i].saturating_add(1);
                 }
             }
         }
@@ -384,7 +462,7 @@ impl Mapper {
         stats.glass_detected = self.glass_now.iter().filter(|&&g| g).count() as u32;
         // the memory (equations 6 and 7)
         match odom {
-            OdomInput::Fresh(pose) => {
+            OdomInput::Fresh(Odom { pose, .. }) => {
                 for &i in &glass_cells {
                     let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
                     self.memory.add(&pose, f64::from(x), f64::from(y), now_ns);
@@ -418,7 +496,11 @@ impl Mapper {
                     .mean(below, i)
                     .max(self.mean(above, i))
                     .max(self.mean(zero, i));
-                let opaque = self.passed[i] == 0 && self.hits[i] >= self.params.min_returns_solid;
+                let single = self.single[i];
+                let opaque = self.passed[i] == 0
+                    && single >= self.params.min_returns_solid
+                    && 2 * single > self.hits[i];
+                let opaque = opaque || 2 * self.inside[i] >= self.hits[i];
                 if m <= gamma && !opaque {
                     cell_class::PASSABLE
                 } else {

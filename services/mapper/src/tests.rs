@@ -103,10 +103,47 @@ fn a_dim_cell_no_beam_passes_through_is_solid() {
         .collect();
     m.update(&pts, OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::SOLID);
-    // with fewer returns than min_returns_solid it stays passable by equation 3
-    let mut m = mapper();
+    // with fewer single-echo returns than min_returns_solid it stays passable by equation 3
+    let mut p = MapperParams::default();
+    p.min_returns_solid = 3;
+    let mut m = Mapper::new(p);
     m.update(&pts[..2], OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
+    // and so do dim returns that were not alone on their beam (grass, where beams die in it)
+    let blades: Vec<Point> = pts
+        .iter()
+        .map(|p| Point {
+            return_type: return_type::LAST,
+            ..*p
+        })
+        .collect();
+    let mut m = mapper();
+    m.update(&blades, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
+}
+
+#[test]
+fn a_weak_echo_just_behind_a_bright_one_is_inside_the_same_object() {
+    let mut m = mapper();
+    // a bush: bright front at 2.0 m, a weak trace 0.3 m inside; grass: weak, then a wall far
+    // behind
+    let pts = vec![
+        pt(2.3, 1.0, 0.1, 3, 3, return_type::LAST),
+        pt(2.0, 0.87, 0.087, 42, 3, return_type::STRONGEST),
+        pt(4.5, -1.0, 0.1, 40, 3, return_type::LAST),
+        pt(1.8, -0.4, 0.04, 6, 3, return_type::STRONGEST),
+    ];
+    // the pairs must share their firing's azimuth and laser
+    let pts: Vec<Point> = pts
+        .chunks(2)
+        .flat_map(|c| {
+            let az = c[1].azimuth_cdeg;
+            c.iter().map(move |p| Point { azimuth_cdeg: az, ..*p }).collect::<Vec<_>>()
+        })
+        .collect();
+    m.update(&pts, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.3, 1.0), cell_class::SOLID, "inside the bush");
+    assert_eq!(class_at(&m, 1.8, -0.4), cell_class::PASSABLE, "a blade the beam passed");
 }
 
 #[test]
@@ -172,7 +209,7 @@ fn glass_scene(with_minus_eps: bool) -> Vec<Point> {
 #[test]
 fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
     let mut m = mapper();
-    let s = m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
+    let s = m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
     assert!(s.glass_detected > 0);
     assert_eq!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
     let g = m.params().grid;
@@ -186,7 +223,7 @@ fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
         }
     }
     let mut m = mapper();
-    let s = m.update(&glass_scene(true), OdomInput::Fresh(Pose2::default()), 0);
+    let s = m.update(&glass_scene(true), OdomInput::Fresh(Odom::default()), 0);
     assert_eq!(
         s.glass_detected, 0,
         "an opaque bright object is seen by the −3° laser too"
@@ -196,7 +233,7 @@ fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
 #[test]
 fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() {
     let mut m = mapper();
-    m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
+    m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
     // the robot moved 1 m forward; the pane is now seen only obliquely: beams pass through
     let moved = Pose2 {
         x: 1.0,
@@ -206,7 +243,14 @@ fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() 
     let through: Vec<Point> = (0..50)
         .map(|k| pt(7.0, -1.0 + 0.04 * k as f32, -0.12, 30, 14, BOTH))
         .collect();
-    let s = m.update(&through, OdomInput::Fresh(moved), 100_000_000);
+    let s = m.update(
+        &through,
+        OdomInput::Fresh(Odom {
+            pose: moved,
+            ..Odom::default()
+        }),
+        100_000_000,
+    );
     assert_eq!(s.glass_detected, 0);
     assert_eq!(
         class_at(&m, 3.0, 0.0),
@@ -225,7 +269,7 @@ fn glass_memory_expires_by_age() {
     let mut p = MapperParams::default();
     p.glass_memory_ns = 1_000_000_000;
     let mut m = Mapper::new(p);
-    m.update(&glass_scene(false), OdomInput::Fresh(Pose2::default()), 0);
-    m.update(&[], OdomInput::Fresh(Pose2::default()), 2_000_000_000);
+    m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
+    m.update(&[], OdomInput::Fresh(Odom::default()), 2_000_000_000);
     assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
 }

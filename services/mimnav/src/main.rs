@@ -3,6 +3,7 @@
 
 mod procs;
 mod replay;
+mod score_map;
 mod sim;
 
 use std::path::PathBuf;
@@ -34,6 +35,9 @@ enum Command {
     /// Run the simulator: write a capture of a world (--pcap OUT), or stream it over UDP to the
     /// driver in real time (--lockstep: as fast as the stack answers).
     Sim(sim::SimArgs),
+    /// Score the mapper on simulated worlds against their ground truth: precision, recall and
+    /// F-score per class.
+    ScoreMap(score_map::ScoreMapArgs),
     /// Check the config file and print the settings in force.
     CheckConfig,
 }
@@ -62,6 +66,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
         Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
+        Command::ScoreMap(args) => score_map::run(&config, args),
         Command::CheckConfig => {
             println!(
                 "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",

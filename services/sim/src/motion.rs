@@ -62,6 +62,58 @@ impl Base {
     }
 }
 
+/// Drives a base through waypoints: turn towards the next one, then drive at it, slowing down
+/// near the last. A scripted driver for surveys, not a planner: it does not avoid anything.
+#[derive(Debug, Clone)]
+pub struct WaypointDriver {
+    waypoints: Vec<[f64; 2]>,
+    next: usize,
+    tolerance_m: f64,
+}
+
+impl WaypointDriver {
+    /// Drives through `waypoints`; one counts as reached within `tolerance_m`.
+    pub fn new(waypoints: Vec<[f64; 2]>, tolerance_m: f64) -> Self {
+        WaypointDriver {
+            waypoints,
+            next: 0,
+            tolerance_m,
+        }
+    }
+
+    /// True once the last waypoint is reached.
+    pub fn done(&self) -> bool {
+        self.next >= self.waypoints.len()
+    }
+
+    /// The (v, ω) command for `pose` within `lim`.
+    pub fn command(&mut self, pose: Pose, lim: &Limits) -> (f64, f64) {
+        while let Some(w) = self.waypoints.get(self.next) {
+            if (w[0] - pose.x).hypot(w[1] - pose.y) > self.tolerance_m {
+                break;
+            }
+            self.next += 1;
+        }
+        let Some(w) = self.waypoints.get(self.next) else {
+            return (0.0, 0.0);
+        };
+        let (dx, dy) = (w[0] - pose.x, w[1] - pose.y);
+        let err = (dy.atan2(dx) - pose.yaw + std::f64::consts::PI)
+            .rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        let omega = (2.0 * err).clamp(-lim.max_angular_rps, lim.max_angular_rps);
+        let last = self.next + 1 == self.waypoints.len();
+        let dist = dx.hypot(dy);
+        let v = if err.abs() > 0.5 {
+            0.0
+        } else {
+            let slow = if last { (dist / 1.0).min(1.0) } else { 1.0 };
+            lim.max_linear_mps * slow * (1.0 - err.abs() / 0.5).max(0.2)
+        };
+        (v, omega)
+    }
+}
+
 /// The first blocking object (solid or glass) a robot of `radius` at (x, y) touches.
 pub fn contact(scene: &Scene, x: f64, y: f64, radius: f64) -> Option<usize> {
     scene.objects.iter().position(|o| {

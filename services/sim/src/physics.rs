@@ -10,10 +10,13 @@
 //!   intercepts 30–80 % of the beam and returns that share of its reflectivity, its range
 //!   jittering by a few centimetres as strands sway;
 //! - grass and bushes are volumes: blade hits come at exponentially distributed distances
-//!   (`density` per metre), each intercepting 20–70 % of the beam;
+//!   (`density` per metre), each intercepting 10–40 % of the beam (a blade is thinner than the
+//!   beam's footprint);
 //! - the beam ends when less than 5 % of it is left.
 //!
-//! Echoes weaker than 1 reflectivity unit are not detected. The sensor reports the last echo and
+//! Echoes closer than 0.2 m along the beam arrive as one pulse and are reported as one echo with
+//! their summed intensity (dense foliage returns strongly, sparse blades weakly). Echoes weaker
+//! than 1 reflectivity unit are not detected. The sensor reports the last echo and
 //! the strongest one (the second strongest when the last is also the strongest).
 
 use crate::geometry::{Hit, intersect};
@@ -52,13 +55,18 @@ pub struct Echo {
     pub intensity: f64,
 }
 
+/// Echoes closer than this along the beam reach the receiver as one pulse: the sensor reports
+/// one echo with their summed intensity at their intensity-weighted range. This is what makes
+/// dense foliage (a bush) return strongly while sparse blades (grass) stay weak.
+const MERGE_M: f64 = 0.2;
+
 /// Minimum detectable echo intensity.
 const MIN_INTENSITY: f64 = 1.0;
 /// The beam is spent below this fraction.
 const MIN_FRACTION: f64 = 0.05;
-/// Blade hits sampled per volume crossing at most: each intercepts at least 20 % of the beam, so
-/// after 14 hits less than 0.8^14 < 5 % is left and the beam is spent anyway.
-const MAX_BLADE_HITS: usize = 14;
+/// Blade hits sampled per volume crossing at most: each intercepts at least 10 % of the beam, so
+/// after 29 hits less than 0.9^29 < 5 % is left and the beam is spent anyway.
+const MAX_BLADE_HITS: usize = 29;
 
 #[derive(Debug, Clone, Copy)]
 enum Event {
@@ -166,7 +174,7 @@ impl BeamCaster {
                         if t >= t_out {
                             break;
                         }
-                        let intercept = 0.2 + 0.5 * rng.f64();
+                        let intercept = 0.1 + 0.3 * rng.f64();
                         self.events.push(Event::Blade {
                             t,
                             intercept,
@@ -258,7 +266,34 @@ impl BeamCaster {
                 break;
             }
         }
+        self.merge();
         &self.echoes
+    }
+
+    /// Merges echoes closer than [`MERGE_M`] (the echoes are in walk order, nearest first up to
+    /// the range jitter).
+    fn merge(&mut self) {
+        if self.echoes.len() < 2 {
+            return;
+        }
+        self.echoes
+            .sort_unstable_by(|a, b| a.range.total_cmp(&b.range));
+        let mut out = 0;
+        for k in 1..self.echoes.len() {
+            let e = self.echoes[k];
+            let g = &mut self.echoes[out];
+            if e.range - g.range <= MERGE_M {
+                let w = g.intensity + e.intensity;
+                if w > 0.0 {
+                    g.range = (g.range * g.intensity + e.range * e.intensity) / w;
+                }
+                g.intensity = w;
+            } else {
+                out += 1;
+                self.echoes[out] = e;
+            }
+        }
+        self.echoes.truncate(out + 1);
     }
 }
 

@@ -1,6 +1,7 @@
 //! Ground truth: the class of every map cell around the robot, in the robot frame, from the
 //! scene's objects. A cell takes the class of the most important object whose footprint comes
-//! within half a cell of its centre: solid before glass before passable; every other cell is free.
+//! within half a cell of its centre (a curtain: plus the sway of its strands): solid before glass
+//! before passable; every other cell is free.
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
@@ -30,7 +31,7 @@ pub fn truth_grid(scene: &Scene, pose: Pose, grid: GridSpec, out: &mut Vec<u8>) 
         // the object's bounding circle in the robot frame
         let (dx, dy) = (centre[0] - pose.x, centre[1] - pose.y);
         let (rx, ry) = (c * dx + s * dy, -s * dx + c * dy);
-        let reach = radius + half;
+        let reach = radius + half + obj.truth_margin_m;
         if rx + reach < -extent
             || rx - reach > extent
             || ry + reach < -extent
@@ -58,7 +59,7 @@ pub fn truth_grid(scene: &Scene, pose: Pose, grid: GridSpec, out: &mut Vec<u8>) 
                 let wy = pose.y + s * x + c * y;
                 // a hair over half a cell, so a sheet lying exactly on a cell border marks the
                 // cells on both sides rather than neither
-                if footprint_distance(&obj.shape, [wx, wy]) <= half + 1e-6 {
+                if footprint_distance(&obj.shape, [wx, wy]) <= half + obj.truth_margin_m + 1e-6 {
                     out[i] = obj.class;
                 }
             }

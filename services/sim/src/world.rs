@@ -29,9 +29,11 @@
 //! | `[[glass]]` | `from`, `to`, `bottom` 0, `top` 2.2 | glass |
 //! | `[[curtain]]` | `from`, `to`, `height` 2.0, `coverage` 0.5 (fraction of the sheet that is strands), `reflectivity` 25 | passable |
 //! | `[[grass]]` | `center`, `size` [x, y], `yaw_deg` 0, `height` 0.8, `density` 6 (blade hits per metre of beam), `reflectivity` 20 | passable |
-//! | `[[bush]]` | `center`, `radius`, `height` 1.0, `density` 40, `reflectivity` 25 | solid (dense foliage to avoid) |
+//! | `[[bush]]` | `center`, `radius`, `height` 1.0, `density` 40, `reflectivity` 45 | solid (dense foliage to avoid) |
 //! | `[[trunk]]` | `center`, `radius` 0.15, `height` 5.0, `reflectivity` 45 | solid |
 //! | `[[rock]]` | `center`, `radius` 0.25, `height` 0.3, `reflectivity` 35 | solid (may sit inside grass) |
+//!
+//! `survey = [[x, y], …]` (optional) is the route the map scorer drives; it defaults to the goal.
 
 use std::path::Path;
 
@@ -71,6 +73,9 @@ fn d_coverage() -> f64 {
 }
 fn d_25() -> f64 {
     25.0
+}
+fn d_bush_r() -> f64 {
+    45.0
 }
 fn d_grass_h() -> f64 {
     0.8
@@ -233,8 +238,8 @@ pub struct Bush {
     /// Leaf hits per metre of beam path.
     #[serde(default = "d_bush_density")]
     pub density: f64,
-    /// Reflectivity of a leaf 0–100.
-    #[serde(default = "d_25")]
+    /// Reflectivity of a leaf 0–100 (leaves are bright in the near infrared).
+    #[serde(default = "d_bush_r")]
     pub reflectivity: f64,
 }
 
@@ -287,6 +292,10 @@ pub struct WorldFile {
     pub goal: [f64; 2],
     /// Time allowed to reach the goal, s.
     pub time_limit_s: f64,
+    /// Waypoints (x, y) the map scorer drives through, in order (default: the goal): a route
+    /// that shows the mapper what the world is about.
+    #[serde(default)]
+    pub survey: Vec<[f64; 2]>,
     /// The ground.
     #[serde(default)]
     pub ground: Ground,
@@ -389,6 +398,9 @@ pub struct Object {
     pub class: u8,
     /// Whether the robot touching it is a collision.
     pub blocks: bool,
+    /// How far around its footprint the object reaches in the ground truth, m: a curtain's
+    /// strands sway a few centimetres either side of its line.
+    pub truth_margin_m: f64,
     /// 2-D bounding circle: centre and radius.
     pub bound: ([f64; 2], f64),
 }
@@ -404,11 +416,17 @@ pub struct Scene {
     pub goal: [f64; 2],
     /// Time limit, s.
     pub time_limit_s: f64,
+    /// The map scorer's route (at least the goal).
+    pub survey: Vec<[f64; 2]>,
     /// Ground reflectivity.
     pub ground_reflectivity: f64,
     /// The objects.
     pub objects: Vec<Object>,
 }
+
+/// How far a curtain's strands sway either side of its line, m (the physics jitters strand
+/// ranges by 3 cm, one standard deviation).
+pub const CURTAIN_SWAY_M: f64 = 0.06;
 
 fn rect(center: [f64; 2], size: [f64; 2], yaw_deg: f64) -> Vec<[f64; 2]> {
     let (s, c) = yaw_deg.to_radians().sin_cos();
@@ -590,12 +608,18 @@ impl WorldFile {
         let mut objects = Vec::new();
         let mut push = |shape: Shape, material: Material, class: u8, blocks: bool| {
             let bound = bound_of(&shape);
+            let truth_margin_m = if matches!(material, Material::Strands { .. }) {
+                CURTAIN_SWAY_M
+            } else {
+                0.0
+            };
             objects.push(Object {
                 shape,
                 material,
                 class,
                 blocks,
                 bound,
+                truth_margin_m,
             });
         };
         for w in &self.wall {
@@ -722,6 +746,11 @@ impl WorldFile {
             start: [self.start[0], self.start[1], self.start[2].to_radians()],
             goal: self.goal,
             time_limit_s: self.time_limit_s,
+            survey: if self.survey.is_empty() {
+                vec![self.goal]
+            } else {
+                self.survey.clone()
+            },
             ground_reflectivity: self.ground.reflectivity,
             objects,
         }

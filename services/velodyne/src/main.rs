@@ -12,17 +12,14 @@ use anyhow::{Context, Result};
 use clap::Parser;
 use iceoryx2::prelude::*;
 use mimnav_shared::cli::ServiceArgs;
-use mimnav_shared::config::{Config, ScanReturnConfig, VelodyneInput, toml_quote};
+use mimnav_shared::config::{Config, VelodyneInput, toml_quote};
 use mimnav_shared::faults::Faults;
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, Svc, ValuePublisher};
 use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
 use mimnav_velodyne::capture::CaptureReader;
-use mimnav_velodyne::decode::{DecoderConfig, ScanReturnSelect};
 use mimnav_velodyne::packet::{POSITION_PACKET_LEN, PositionPacket, PpsStatus};
 use mimnav_velodyne::replay::Pacer;
-use mimnav_velodyne::revolution::{
-    Assembler, AssemblerConfig, Revolution, max_points_per_revolution, max_scan_len,
-};
+use mimnav_velodyne::revolution::{Assembler, AssemblerConfig, Revolution, max_scan_len};
 use mimnav_velodyne::udp::{Port, UdpConfig, UdpSource};
 
 /// The VLP-16 driver: decodes a live sensor (UDP) or replays a capture, and publishes
@@ -75,30 +72,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// Capacity of the published payloads, from the sensor's rotation rate.
-fn assembler_config(config: &Config) -> AssemblerConfig {
-    let v = &config.velodyne;
-    // a revolution may last up to 1.5 turns before it is cut (a gap in the stream)
-    let max_duration_s = 1.5 * 60.0 / v.rpm;
-    AssemblerConfig {
-        decoder: DecoderConfig {
-            min_range_m: v.min_range_m as f32,
-            max_range_m: v.max_range_m as f32,
-            accept_product_0x21: v.accept_product_0x21,
-            scan_laser: Some(v.scan_laser),
-            scan_return: match v.scan_return {
-                ScanReturnConfig::Strongest => ScanReturnSelect::Strongest,
-                ScanReturnConfig::Last => ScanReturnSelect::Last,
-            },
-        },
-        cut_azimuth_cdeg: v
-            .cut_azimuth_deg
-            .map(|d| (d * 100.0).round() as u16 % 36000),
-        max_duration_ns: (max_duration_s * 1e9) as u64,
-        max_points: max_points_per_revolution(v.rpm, max_duration_s),
-    }
-}
-
 /// The driver's state between datagrams.
 struct Driver {
     assembler: Assembler,
@@ -128,7 +101,7 @@ struct Stats {
 
 impl Driver {
     fn new(config: &Config, node: &Node<Svc>) -> Result<Self> {
-        let asm = assembler_config(config);
+        let asm = AssemblerConfig::from_config(config);
         let v = &config.velodyne;
         let max_duration_s = asm.max_duration_ns as f64 * 1e-9;
         let points = ipc::points_publisher(node, asm.max_points)?;

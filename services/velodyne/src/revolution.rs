@@ -43,6 +43,33 @@ impl Default for AssemblerConfig {
     }
 }
 
+impl AssemblerConfig {
+    /// Settings from the stack's config: a revolution may last up to 1.5 turns at
+    /// `velodyne.rpm` before it is cut, and the capacity covers that in dual-return mode.
+    pub fn from_config(config: &mimnav_shared::config::Config) -> Self {
+        use mimnav_shared::config::ScanReturnConfig;
+        let v = &config.velodyne;
+        let max_duration_s = 1.5 * 60.0 / v.rpm;
+        AssemblerConfig {
+            decoder: DecoderConfig {
+                min_range_m: v.min_range_m as f32,
+                max_range_m: v.max_range_m as f32,
+                accept_product_0x21: v.accept_product_0x21,
+                scan_laser: Some(v.scan_laser),
+                scan_return: match v.scan_return {
+                    ScanReturnConfig::Strongest => ScanReturnSelect::Strongest,
+                    ScanReturnConfig::Last => ScanReturnSelect::Last,
+                },
+            },
+            cut_azimuth_cdeg: v
+                .cut_azimuth_deg
+                .map(|d| (d * 100.0).round() as u16 % 36000),
+            max_duration_ns: (max_duration_s * 1e9) as u64,
+            max_points: max_points_per_revolution(v.rpm, max_duration_s),
+        }
+    }
+}
+
 /// Worst-case points of a revolution lasting at most `max_duration_s` of a sensor spinning at
 /// `rpm`, in dual-return mode (every channel of every block pair giving two returns).
 pub fn max_points_per_revolution(rpm: f64, max_duration_s: f64) -> usize {

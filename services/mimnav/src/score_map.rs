@@ -1,0 +1,181 @@
+//! `mimnav score-map`: how well the mapper classifies each bundled world, against the
+//! simulator's ground truth.
+//!
+//! Runs in one process, lock-step and deterministic: the simulator drives the world's survey
+//! route, its packets go through the driver's decoder and revolution assembler, each revolution
+//! through the mapper with the simulator's exact odometry, and each map is scored against the
+//! truth of the same instant (protocol in `mimnav_mapper::score`).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use mimnav_mapper::glass::Pose2;
+use mimnav_mapper::score::{ClassScore, MapScore, score};
+use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
+use mimnav_shared::config::Config;
+use mimnav_sim::motion::WaypointDriver;
+use mimnav_sim::world::WorldFile;
+use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
+use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
+
+/// Arguments of `mimnav score-map`.
+#[derive(Debug, clap::Args)]
+pub struct ScoreMapArgs {
+    /// Worlds to score (default: every world in the config's worlds folder).
+    #[arg(long = "world", value_name = "FILE")]
+    worlds: Vec<PathBuf>,
+    /// Score cells within this distance of the sensor, m.
+    #[arg(long, default_value_t = 4.5)]
+    range: f32,
+    /// Seed of the simulation (default: sim.seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Revolutions at the start that are not scored (the map needs one to fill).
+    #[arg(long, default_value_t = 2)]
+    warmup: u64,
+}
+
+/// The result of one world.
+#[derive(Debug, Clone)]
+pub struct WorldScore {
+    /// World name.
+    pub name: String,
+    /// Summed over the scored revolutions.
+    pub total: MapScore,
+    /// The last revolution alone (what the map holds at the end of the route).
+    pub last: MapScore,
+    /// Revolutions scored.
+    pub revolutions: u64,
+    /// How the survey ended.
+    pub outcome: Outcome,
+    /// Mean time the mapper took per revolution, µs.
+    pub mapper_us: f64,
+}
+
+/// Drives `world`'s survey and scores every revolution.
+pub fn score_world(
+    config: &Config,
+    path: &Path,
+    seed: u64,
+    range: f32,
+    warmup: u64,
+) -> Result<WorldScore> {
+    let world = WorldFile::load(path)?;
+    let scene = world.compile();
+    let survey = scene.survey.clone();
+    let mut sim = Sim::new(
+        scene,
+        SimSettings::from_config(config),
+        seed,
+        DEFAULT_EPOCH_NS,
+    );
+    let mut driver = WaypointDriver::new(survey, 0.25);
+    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
+    let mut mapper = Mapper::new(MapperParams::from_config(config));
+    let grid = config.map.grid();
+    let mut truth = Vec::new();
+    let (mut total, mut last) = (MapScore::default(), MapScore::default());
+    let (mut revolutions, mut seen) = (0u64, 0u64);
+    let mut mapper_ns = 0u128;
+    let limits = sim.settings().limits;
+    while sim.outcome() == Outcome::Running && !driver.done() {
+        let step = sim.step();
+        let Some(rev) = asm
+            .push(&step.data, step.first_firing_ns, 0)
+            .context("the driver refused a simulated packet")?
+        else {
+            continue;
+        };
+        seen += 1;
+        let b = *sim.base();
+        let pose = Pose2 {
+            x: b.pose.x,
+            y: b.pose.y,
+            yaw: b.pose.yaw,
+        };
+        let t = std::time::Instant::now();
+        mapper.update(
+            &rev.points,
+            OdomInput::Fresh(Odom {
+                pose,
+                v: b.v,
+                omega: b.omega,
+            }),
+            rev.header.stamp_ns,
+        );
+        mapper_ns += t.elapsed().as_nanos();
+        sim.truth(grid, &mut truth);
+        if seen > warmup {
+            last = score(mapper.classes(), &truth, grid, range);
+            total.add(&last);
+            revolutions += 1;
+        }
+        let (v, w) = driver.command(b.pose, &limits);
+        sim.set_command(v, w);
+    }
+    Ok(WorldScore {
+        name: world.name,
+        total,
+        last,
+        revolutions,
+        outcome: sim.outcome(),
+        mapper_us: mapper_ns as f64 / 1e3 / seen.max(1) as f64,
+    })
+}
+
+fn cell(s: &ClassScore) -> String {
+    if s.is_empty() {
+        return "     –     ".into();
+    }
+    format!("{:.3} {:.3} {:.3}", s.precision(), s.recall(), s.f_score())
+}
+
+/// Scores the worlds and prints a table.
+pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
+    let worlds = if args.worlds.is_empty() {
+        let dir = config.sim.world_path(&config.dir());
+        let dir = dir
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .with_context(|| format!("cannot list the worlds in {}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        v.sort();
+        v
+    } else {
+        args.worlds.clone()
+    };
+    let seed = args.seed.unwrap_or(config.sim.seed);
+    println!(
+        "cells within {} m, one cell of tolerance; precision recall F-score per class (– where the class never occurs)\n",
+        args.range
+    );
+    println!(
+        "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | revolutions | route | mapper µs/rev |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for path in &worlds {
+        let s = score_world(config, path, seed, args.range, args.warmup)?;
+        let outcome = match s.outcome {
+            Outcome::Running | Outcome::GoalReached => "done".to_string(),
+            Outcome::Contact(i) => format!("contact with object {i}"),
+            Outcome::Timeout => "timeout".to_string(),
+        };
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {:.0} |",
+            s.name,
+            cell(&s.total.solid),
+            cell(&s.total.passable),
+            cell(&s.total.glass),
+            cell(&s.last.glass),
+            s.revolutions,
+            outcome,
+            s.mapper_us
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
