@@ -126,6 +126,8 @@ pub struct MapperConfig {
     /// Γ of equation 3, on the normalised scale: a cell whose layers' mean intensities all stay
     /// at or below it is passable.
     pub gamma: f64,
+    /// A cell with a return brighter than this (normalised) is solid, whatever its mean.
+    pub solid_max: f64,
     /// Points lower than this above the ground are ground, m.
     pub ground_clearance_m: f64,
     /// A cell with at least this many returns, none of which a beam passed through, is solid
@@ -159,6 +161,7 @@ impl Default for MapperConfig {
             layers: Vec::new(),
             full_scale: 100.0,
             gamma: 0.3,
+            solid_max: 0.35,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -202,6 +205,7 @@ impl MapperConfig {
     fn validate(&self, r: &mut Ranges) {
         r.check("mapper.full_scale", self.full_scale, 1.0, 255.0);
         r.check("mapper.gamma", self.gamma, 0.0, 1.0);
+        r.check("mapper.solid_max", self.solid_max, 0.0, 2.55);
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,

@@ -15,7 +15,10 @@
 //! behind (by more than a cell) shows a beam that went *through* the cell, and a firing with one
 //! echo only (both blocks equal) shows a beam stopped by one surface. A cell with several
 //! single-echo returns and none a beam passed through is solid whatever its intensity — an opaque
-//! wall seen at a grazing angle returns little light but never lets a beam through. Likewise a weak
+//! wall seen at a grazing angle returns little light but never lets a beam through. A cell
+//! holding any return brighter than `solid_max` (a layer's maximum, kept beside its sum) is solid:
+//! grass blades and curtain strands never return that much, while a solid object seen partly
+//! through grass still returns brightly where a beam reaches it whole. Likewise a weak
 //! echo less than 0.5 m behind a bright echo (above Γ) of the same firing comes from inside the
 //! same object, and its cell is solid. (Single-return sensors give none of these cues: then
 //! equation 3 alone decides.)
@@ -45,6 +48,8 @@ pub struct MapperParams {
     pub full_scale: f32,
     /// Γ, normalised.
     pub gamma: f32,
+    /// A cell with a return brighter than this (normalised) is solid.
+    pub solid_max: f32,
     /// Returns with none passed through that make a cell solid.
     pub min_returns_solid: u16,
     /// Glass spike detector.
@@ -70,6 +75,7 @@ impl MapperParams {
             ground_clearance_m: m.ground_clearance_m,
             full_scale: m.full_scale as f32,
             gamma: m.gamma as f32,
+            solid_max: m.solid_max as f32,
             min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
@@ -143,6 +149,7 @@ pub struct Mapper {
     roles: [usize; 4],
     count: Vec<u16>,
     sum: Vec<f32>,
+    max: Vec<u8>,
     hits: Vec<u16>,
     single: Vec<u16>,
     passed: Vec<u16>,
@@ -213,6 +220,7 @@ impl Mapper {
             roles,
             count: vec![0; m * n2],
             sum: vec![0.0; m * n2],
+            max: vec![0; m * n2],
             hits: vec![0; n2],
             single: vec![0; n2],
             passed: vec![0; n2],
@@ -295,6 +303,7 @@ impl Mapper {
         let mut stats = UpdateStats::default();
         self.count.fill(0);
         self.sum.fill(0.0);
+        self.max.fill(0);
         self.hits.fill(0);
         self.single.fill(0);
         self.passed.fill(0);
@@ -405,6 +414,7 @@ impl Mapper {
                 if in_layer(b, p.z, sin_el) {
                     self.count[j * n2 + i] = self.count[j * n2 + i].saturating_add(1);
                     self.sum[j * n2 + i] += f32::from(p.intensity);
+                    self.max[j * n2 + i] = self.max[j * n2 + i].max(p.intensity);
                     any = true;
                 }
             }
@@ -488,6 +498,7 @@ impl Mapper {
         stats.glass_memory = self.memory.len() as u32;
         // classes (equations 3–5) and cost
         let gamma = self.params.gamma;
+        let solid_max_abs = self.params.solid_max * self.params.full_scale;
         for i in 0..n2 {
             let class = if self.glass_now[i] {
                 cell_class::GLASS
@@ -496,12 +507,18 @@ impl Mapper {
                     .mean(below, i)
                     .max(self.mean(above, i))
                     .max(self.mean(zero, i));
+                let brightest = [below, above, zero]
+                    .iter()
+                    .map(|&j| self.max[j * n2 + i])
+                    .max()
+                    .unwrap_or(0);
+                let bright = f32::from(brightest) > solid_max_abs;
                 let single = self.single[i];
                 let opaque = self.passed[i] == 0
                     && single >= self.params.min_returns_solid
                     && 2 * single > self.hits[i];
                 let opaque = opaque || 2 * self.inside[i] >= self.hits[i];
-                if m <= gamma && !opaque {
+                if m <= gamma && !opaque && !bright {
                     cell_class::PASSABLE
                 } else {
                     cell_class::SOLID

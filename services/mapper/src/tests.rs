@@ -138,12 +138,21 @@ fn a_weak_echo_just_behind_a_bright_one_is_inside_the_same_object() {
         .chunks(2)
         .flat_map(|c| {
             let az = c[1].azimuth_cdeg;
-            c.iter().map(move |p| Point { azimuth_cdeg: az, ..*p }).collect::<Vec<_>>()
+            c.iter()
+                .map(move |p| Point {
+                    azimuth_cdeg: az,
+                    ..*p
+                })
+                .collect::<Vec<_>>()
         })
         .collect();
     m.update(&pts, OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.3, 1.0), cell_class::SOLID, "inside the bush");
-    assert_eq!(class_at(&m, 1.8, -0.4), cell_class::PASSABLE, "a blade the beam passed");
+    assert_eq!(
+        class_at(&m, 1.8, -0.4),
+        cell_class::PASSABLE,
+        "a blade the beam passed"
+    );
 }
 
 #[test]
