@@ -147,13 +147,13 @@ pub struct Mapper {
     params: MapperParams,
     bounds: Vec<LayerBounds>,
     roles: [usize; 4],
-    count: Vec<u16>,
-    sum: Vec<f32>,
-    max: Vec<u8>,
-    hits: Vec<u16>,
-    single: Vec<u16>,
-    passed: Vec<u16>,
-    inside: Vec<u16>,
+    /// Per cell and layer (cell-major: `i * m + j`): eq. 1's sum, the count and the maximum.
+    layer: Vec<LayerCell>,
+    /// Per cell: the dual-return evidence.
+    evidence: Vec<Evidence>,
+    /// Cells written in this revolution (cleared at the next).
+    touched: Vec<u32>,
+    dirty: Vec<bool>,
     glass_now: Vec<bool>,
     glass_drawn: Vec<bool>,
     reach: Vec<f32>,
@@ -218,13 +218,10 @@ impl Mapper {
         Mapper {
             bounds,
             roles,
-            count: vec![0; m * n2],
-            sum: vec![0.0; m * n2],
-            max: vec![0; m * n2],
-            hits: vec![0; n2],
-            single: vec![0; n2],
-            passed: vec![0; n2],
-            inside: vec![0; n2],
+            layer: vec![LayerCell::default(); m * n2],
+            evidence: vec![Evidence::default(); n2],
+            touched: Vec::with_capacity(n2),
+            dirty: vec![false; n2],
             glass_now: vec![false; n2],
             glass_drawn: vec![false; n2],
             reach: vec![0.0; REACH_BINS],
@@ -265,19 +262,20 @@ impl Mapper {
         let n2 = self.params.grid.len();
         let g2 = self.params.grid.cell_m * self.params.grid.cell_m;
         let scale = 1.0 / (self.params.full_scale * g2);
+        let m = self.bounds.len();
         out.clear();
-        out.extend(self.sum[j * n2..(j + 1) * n2].iter().map(|s| s * scale));
+        out.extend((0..n2).map(|i| self.layer[i * m + j].sum * scale));
     }
 
     /// Mean normalised intensity of layer j in cell i (0 without points).
     #[inline]
     fn mean(&self, j: usize, i: usize) -> f32 {
-        let n2 = self.params.grid.len();
-        let c = self.count[j * n2 + i];
+        let cell = &self.layer[i * self.bounds.len() + j];
+        let c = cell.count;
         if c == 0 {
             0.0
         } else {
-            self.sum[j * n2 + i] / (f32::from(c) * self.params.full_scale)
+            cell.sum / (f32::from(c) * self.params.full_scale)
         }
     }
 
@@ -286,28 +284,29 @@ impl Mapper {
     pub fn cell_evidence(&self, i: usize) -> (u16, u16, u16, [f32; 3]) {
         let (b, a, z) = (self.roles[0], self.roles[1], self.roles[2]);
         (
-            self.hits[i],
-            self.single[i],
-            self.passed[i],
+            self.evidence[i].hits,
+            self.evidence[i].single,
+            self.evidence[i].passed,
             [self.mean(b, i), self.mean(a, i), self.mean(z, i)],
         )
     }
 
     /// Points in layer j of cell i.
     pub fn layer_count_at(&self, j: usize, i: usize) -> u16 {
-        self.count[j * self.params.grid.len() + i]
+        self.layer[i * self.bounds.len() + j].count
     }
 
     /// Maps one revolution. `now_ns` is the revolution's stamp (ages the glass memory).
     pub fn update(&mut self, points: &[Point], odom: OdomInput, now_ns: u64) -> UpdateStats {
         let mut stats = UpdateStats::default();
-        self.count.fill(0);
-        self.sum.fill(0.0);
-        self.max.fill(0);
-        self.hits.fill(0);
-        self.single.fill(0);
-        self.passed.fill(0);
-        self.inside.fill(0);
+        let m = self.bounds.len();
+        for &i in &self.touched {
+            let i = i as usize;
+            self.evidence[i] = Evidence::default();
+            self.layer[i * m..(i + 1) * m].fill(LayerCell::default());
+            self.dirty[i] = false;
+        }
+        self.touched.clear();
         self.glass_now.fill(false);
         self.glass_drawn.fill(false);
         self.reach.fill(0.0);
@@ -348,7 +347,7 @@ impl Mapper {
             };
             (p.x, p.y) = undistort(p0);
             let p = &p;
-            let horizontal = p.x.hypot(p.y);
+            let horizontal = (p.x * p.x + p.y * p.y).sqrt();
             let bin = usize::from(az_cdeg / 50) % REACH_BINS;
             if horizontal > self.reach[bin] {
                 self.reach[bin] = horizontal;
@@ -387,14 +386,29 @@ impl Mapper {
                         if gap > 1.5 * grid.cell_m {
                             if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
                                 let ni = grid.index(nr, nc);
-                                self.passed[ni] = self.passed[ni].saturating_add(1);
+                                touch(&mut self.dirty, &mut self.touched, ni);
+                                self.evidence[ni].passed =
+                                    self.evidence[ni].passed.saturating_add(1);
+                            }
+                            // the beam ended on its strongest echo (p is the last return, q the
+                            // second strongest): it stopped on something more reflective than
+                            // what it passed — a surface, not the last blade of a spent beam
+                            if q_nearer && u16::from(p.intensity) > 3 * u16::from(q.intensity) {
+                                if let Some((fr, fc)) = grid.cell_of(far.0, far.1) {
+                                    let fi = grid.index(fr, fc);
+                                    touch(&mut self.dirty, &mut self.touched, fi);
+                                    self.evidence[fi].stopped =
+                                        self.evidence[fi].stopped.saturating_add(1);
+                                }
                             }
                         }
                         // a weak echo just behind a bright one is the inside of the same object
                         if gap <= INSIDE_M && f32::from(near_i) > gamma_abs {
                             if let Some((fr, fc)) = grid.cell_of(far.0, far.1) {
                                 let fi = grid.index(fr, fc);
-                                self.inside[fi] = self.inside[fi].saturating_add(1);
+                                touch(&mut self.dirty, &mut self.touched, fi);
+                                self.evidence[fi].inside =
+                                    self.evidence[fi].inside.saturating_add(1);
                             }
                         }
                     }
@@ -412,17 +426,20 @@ impl Mapper {
             let mut any = false;
             for (j, b) in self.bounds.iter().enumerate() {
                 if in_layer(b, p.z, sin_el) {
-                    self.count[j * n2 + i] = self.count[j * n2 + i].saturating_add(1);
-                    self.sum[j * n2 + i] += f32::from(p.intensity);
-                    self.max[j * n2 + i] = self.max[j * n2 + i].max(p.intensity);
+                    let cell = &mut self.layer[i * m + j];
+                    cell.count = cell.count.saturating_add(1);
+                    cell.sum += f32::from(p.intensity);
+                    cell.max = cell.max.max(p.intensity);
                     any = true;
                 }
             }
             if any {
                 stats.binned += 1;
-                self.hits[i] = self.hits[i].saturating_add(1);
+                touch(&mut self.dirty, &mut self.touched, i);
+                let e = &mut self.evidence[i];
+                e.hits = e.hits.saturating_add(1);
                 if p.return_type == return_type::BOTH {
-                    self.single[i] = self.single[i].saturating_add(1);
+                    e.single = e.single.saturating_add(1);
                 }
             }
         }
@@ -460,7 +477,7 @@ impl Mapper {
                 let p = &points[k as usize];
                 if let Some((r, c)) = grid.cell_of(p.x, p.y) {
                     let i = grid.index(r, c);
-                    if self.count[minus * n2 + i] == 0 {
+                    if self.layer[i * m + minus].count == 0 {
                         glass_cells.push(i);
                     }
                 }
@@ -502,23 +519,23 @@ impl Mapper {
         for i in 0..n2 {
             let class = if self.glass_now[i] {
                 cell_class::GLASS
-            } else if self.hits[i] > 0 {
-                let m = self
+            } else if self.evidence[i].hits > 0 {
+                let mean = self
                     .mean(below, i)
                     .max(self.mean(above, i))
                     .max(self.mean(zero, i));
                 let brightest = [below, above, zero]
                     .iter()
-                    .map(|&j| self.max[j * n2 + i])
+                    .map(|&j| self.layer[i * m + j].max)
                     .max()
                     .unwrap_or(0);
                 let bright = f32::from(brightest) > solid_max_abs;
-                let single = self.single[i];
-                let opaque = self.passed[i] == 0
-                    && single >= self.params.min_returns_solid
-                    && 2 * single > self.hits[i];
-                let opaque = opaque || 2 * self.inside[i] >= self.hits[i];
-                if m <= gamma && !opaque && !bright {
+                let e = self.evidence[i];
+                let ended = e.single.saturating_add(e.stopped);
+                let opaque =
+                    e.passed == 0 && ended >= self.params.min_returns_solid && 2 * ended > e.hits;
+                let opaque = opaque || 2 * e.inside >= e.hits;
+                if mean <= gamma && !opaque && !bright {
                     cell_class::PASSABLE
                 } else {
                     cell_class::SOLID
@@ -541,6 +558,37 @@ impl Mapper {
             };
         }
         stats
+    }
+}
+
+/// One layer of one cell.
+#[derive(Debug, Clone, Copy, Default)]
+struct LayerCell {
+    sum: f32,
+    count: u16,
+    max: u8,
+}
+
+/// What the dual returns say about one cell.
+#[derive(Debug, Clone, Copy, Default)]
+struct Evidence {
+    /// Returns in the main layers.
+    hits: u16,
+    /// Of those, firings with one echo.
+    single: u16,
+    /// Returns another return of the same firing lies behind (by more than a cell).
+    passed: u16,
+    /// Weak returns just behind a bright one of the same firing.
+    inside: u16,
+    /// Last returns much stronger than the rest of their firing.
+    stopped: u16,
+}
+
+#[inline]
+fn touch(dirty: &mut [bool], touched: &mut Vec<u32>, i: usize) {
+    if !dirty[i] {
+        dirty[i] = true;
+        touched.push(i as u32);
     }
 }
 
