@@ -72,3 +72,74 @@ fn check_config_accepts_the_shipped_config() {
     assert!(stdout.contains("mimnav.toml: ok"), "{stdout}");
     assert!(stdout.contains("turtlebot2"), "{stdout}");
 }
+
+/// The score-map table's row for `world`: [solid P R F, passable P R F, glass P R F, glass at the
+/// end P R F], None where the class never occurs.
+fn score_row(out: &str, world: &str) -> Vec<Option<[f64; 3]>> {
+    let line = out
+        .lines()
+        .find(|l| l.starts_with(&format!("| {world}")))
+        .unwrap_or_else(|| panic!("{world} in {out}"));
+    line.split('|')
+        .skip(2)
+        .take(4)
+        .map(|cell| {
+            let v: Vec<f64> = cell
+                .split_whitespace()
+                .filter_map(|x| x.parse().ok())
+                .collect();
+            (v.len() == 3).then(|| [v[0], v[1], v[2]])
+        })
+        .collect()
+}
+
+#[test]
+fn score_map_meets_the_targets_where_the_readme_says_it_does() {
+    let out = Command::new(bin("mimnav"))
+        .arg("--config")
+        .arg(shipped_config())
+        .arg("score-map")
+        .output()
+        .expect("run mimnav score-map");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let f = |row: &[Option<[f64; 3]>], k: usize| {
+        row[k]
+            .map(|v| v[2])
+            .unwrap_or_else(|| panic!("class {k} scored: {stdout}"))
+    };
+    let s1 = score_row(&stdout, "scenario 1");
+    assert!(
+        f(&s1, 0) >= 0.95 && f(&s1, 2) >= 0.90,
+        "scenario 1: {stdout}"
+    );
+    assert!(
+        f(&s1, 3) >= 0.95,
+        "scenario 1: the glass wall stays mapped after driving past it: {stdout}"
+    );
+    let s2 = score_row(&stdout, "scenario 2");
+    assert!(
+        f(&s2, 0) >= 0.95 && f(&s2, 1) >= 0.95 && f(&s2, 2) >= 0.95,
+        "scenario 2: {stdout}"
+    );
+    // below the 0.95 target (see the README): regression floors
+    let s3 = score_row(&stdout, "scenario 3");
+    assert!(
+        f(&s3, 1) >= 0.95 && f(&s3, 0) >= 0.85,
+        "scenario 3: {stdout}"
+    );
+    let s4 = score_row(&stdout, "scenario 4");
+    assert!(
+        f(&s4, 1) >= 0.95 && f(&s4, 0) >= 0.45,
+        "scenario 4: {stdout}"
+    );
+    let wall = score_row(&stdout, "one wall");
+    assert!(
+        f(&wall, 0) >= 0.95 && wall[2].is_none(),
+        "one wall: {stdout}"
+    );
+}

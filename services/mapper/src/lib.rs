@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 
 pub mod glass;
+pub mod render;
 pub mod score;
 
 use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
@@ -355,63 +356,61 @@ impl Mapper {
             let d = p.distance_m().max(1e-3);
             let sin_el = p.z / d;
             let strongest = p.return_type & return_type::STRONGEST != 0;
-            if strongest && in_layer(&zero_b, p.z, sin_el) {
-                if let Some(ring) = self.rings.get_mut(usize::from(p.laser_id)) {
-                    ring.push((
-                        RingReturn {
-                            azimuth_deg: f32::from(p.azimuth_cdeg) * 0.01,
-                            intensity: f32::from(p.intensity),
-                            range_m: horizontal,
-                        },
-                        k as u32,
-                    ));
-                }
+            if strongest
+                && in_layer(&zero_b, p.z, sin_el)
+                && let Some(ring) = self.rings.get_mut(usize::from(p.laser_id))
+            {
+                ring.push((
+                    RingReturn {
+                        azimuth_deg: f32::from(p.azimuth_cdeg) * 0.01,
+                        intensity: f32::from(p.intensity),
+                        range_m: horizontal,
+                    },
+                    k as u32,
+                ));
             }
             // a dual pair that differs (last, then strongest, same firing): the nearer return
             // let the beam through
-            if p.return_type == return_type::LAST {
-                if let Some(q) = points.get(k + 1) {
-                    if q.return_type == return_type::STRONGEST
-                        && q.laser_id == p.laser_id
-                        && q.azimuth_cdeg == p.azimuth_cdeg
-                    {
-                        // both returns of a pair share the firing time, so the de-skew
-                        let q_nearer = q.distance_raw < p.distance_raw;
-                        let (near, near_i, far) = if q_nearer {
-                            (undistort(q), q.intensity, (p.x, p.y))
-                        } else {
-                            ((p.x, p.y), p.intensity, undistort(q))
-                        };
-                        let gap = (q.distance_m() - p.distance_m()).abs();
-                        if gap > 1.5 * grid.cell_m {
-                            if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
-                                let ni = grid.index(nr, nc);
-                                touch(&mut self.dirty, &mut self.touched, ni);
-                                self.evidence[ni].passed =
-                                    self.evidence[ni].passed.saturating_add(1);
-                            }
-                            // the beam ended on its strongest echo (p is the last return, q the
-                            // second strongest): it stopped on something more reflective than
-                            // what it passed — a surface, not the last blade of a spent beam
-                            if q_nearer && u16::from(p.intensity) > 3 * u16::from(q.intensity) {
-                                if let Some((fr, fc)) = grid.cell_of(far.0, far.1) {
-                                    let fi = grid.index(fr, fc);
-                                    touch(&mut self.dirty, &mut self.touched, fi);
-                                    self.evidence[fi].stopped =
-                                        self.evidence[fi].stopped.saturating_add(1);
-                                }
-                            }
-                        }
-                        // a weak echo just behind a bright one is the inside of the same object
-                        if gap <= INSIDE_M && f32::from(near_i) > gamma_abs {
-                            if let Some((fr, fc)) = grid.cell_of(far.0, far.1) {
-                                let fi = grid.index(fr, fc);
-                                touch(&mut self.dirty, &mut self.touched, fi);
-                                self.evidence[fi].inside =
-                                    self.evidence[fi].inside.saturating_add(1);
-                            }
-                        }
+            if p.return_type == return_type::LAST
+                && let Some(q) = points.get(k + 1)
+                && q.return_type == return_type::STRONGEST
+                && q.laser_id == p.laser_id
+                && q.azimuth_cdeg == p.azimuth_cdeg
+            {
+                // both returns of a pair share the firing time, so the de-skew
+                let q_nearer = q.distance_raw < p.distance_raw;
+                let (near, near_i, far) = if q_nearer {
+                    (undistort(q), q.intensity, (p.x, p.y))
+                } else {
+                    ((p.x, p.y), p.intensity, undistort(q))
+                };
+                let gap = (q.distance_m() - p.distance_m()).abs();
+                if gap > 1.5 * grid.cell_m {
+                    if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
+                        let ni = grid.index(nr, nc);
+                        touch(&mut self.dirty, &mut self.touched, ni);
+                        self.evidence[ni].passed = self.evidence[ni].passed.saturating_add(1);
                     }
+                    // the beam ended on its strongest echo (p is the last return, q the
+                    // second strongest): it stopped on something more reflective than
+                    // what it passed — a surface, not the last blade of a spent beam
+                    if q_nearer
+                        && u16::from(p.intensity) > 3 * u16::from(q.intensity)
+                        && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
+                    {
+                        let fi = grid.index(fr, fc);
+                        touch(&mut self.dirty, &mut self.touched, fi);
+                        self.evidence[fi].stopped = self.evidence[fi].stopped.saturating_add(1);
+                    }
+                }
+                // a weak echo just behind a bright one is the inside of the same object
+                if gap <= INSIDE_M
+                    && f32::from(near_i) > gamma_abs
+                    && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
+                {
+                    let fi = grid.index(fr, fc);
+                    touch(&mut self.dirty, &mut self.touched, fi);
+                    self.evidence[fi].inside = self.evidence[fi].inside.saturating_add(1);
                 }
             }
             if p.z < ground_z {

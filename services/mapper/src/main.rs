@@ -1,1 +1,216 @@
-fn main() {}
+//! `mimnav-mapper`: the map builder service.
+//!
+//! Wiring only: config → topics → a WaitSet loop that maps every revolution of `lidar/points`
+//! with the latest `odom` and publishes `map/layers` and `map/plan`. A revolution later than
+//! `mapper.points_deadline_s` is reported (rate-limited) as stale input; the loop goes on.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use clap::Parser;
+use iceoryx2::prelude::*;
+use mimnav_mapper::glass::Pose2;
+use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
+use mimnav_shared::cli::ServiceArgs;
+use mimnav_shared::config::Config;
+use mimnav_shared::faults::Faults;
+use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, map_status};
+
+/// The map builder: lidar/points + odom → map/layers + map/plan.
+#[derive(Debug, Parser)]
+#[command(name = "mimnav-mapper", version)]
+struct Args {
+    #[command(flatten)]
+    service: ServiceArgs,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let config = match args.service.load(&[]) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("mimnav-mapper: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    mimnav_shared::logging::init(&config.log.level);
+    match run(&config) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{e:#}");
+            eprintln!("mimnav-mapper: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run(config: &Config) -> Result<()> {
+    let node = ipc::node(config, "mapper")?;
+    let points = ipc::points_subscriber(&node)?;
+    let odom_sub = ipc::odom_subscriber(&node)?;
+    let params = MapperParams::from_config(config);
+    let grid = params.grid;
+    let n_layers = params.layers.len();
+    let layers_pub = ipc::layers_publisher(&node, n_layers * grid.len())?;
+    let plan_pub = ipc::plan_publisher(&node, grid.len())?;
+    let mut mapper = Mapper::new(params);
+    tracing::info!(
+        cells = grid.cells,
+        cell_m = grid.cell_m,
+        layers = n_layers,
+        "topics open: {}, {}",
+        mimnav_shared::topics::MAP_LAYERS,
+        mimnav_shared::topics::MAP_PLAN
+    );
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<Svc>()
+        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
+    let deadline = Duration::from_secs_f64(config.mapper.points_deadline_s);
+    let points_guard = waitset
+        .attach_deadline(points.listener(), deadline)
+        .map_err(|e| anyhow::anyhow!("cannot wait on lidar/points: {e:?}"))?;
+    let _odom_guard = waitset
+        .attach_notification(odom_sub.listener())
+        .map_err(|e| anyhow::anyhow!("cannot wait on odom: {e:?}"))?;
+    let mut faults = Faults::new(Duration::from_secs(10));
+    let mut latest_odom: Option<Odometry> = None;
+    let odom_max_age_ns = (config.mapper.odom_max_age_s * 1e9) as u64;
+    let mut seq = 0u64;
+    let mut layer_buf: Vec<f32> = Vec::with_capacity(n_layers * grid.len());
+    let mut one_layer: Vec<f32> = Vec::with_capacity(grid.len());
+    let mut plan_buf: Vec<PlanCell> = Vec::with_capacity(grid.len());
+    let mut spent_us = 0u64;
+    let mut since_report = 0u64;
+    let mut last_report = Instant::now();
+    let result = waitset.wait_and_process(|id| {
+        if id.has_missed_deadline(&points_guard) {
+            faults.record(
+                "stale_points",
+                Instant::now(),
+                format_args!(
+                    "no revolution on lidar/points for {:.1} s",
+                    deadline.as_secs_f64()
+                ),
+            );
+        }
+        let _ = odom_sub.heard();
+        match odom_sub.latest() {
+            Ok(Some(o)) => latest_odom = Some(o),
+            Ok(None) => {}
+            Err(e) => {
+                faults.record("receive_failed", Instant::now(), e);
+            }
+        }
+        let _ = points.heard();
+        loop {
+            let sample = match points.receive() {
+                Ok(Some(s)) => s,
+                Ok(None) => break,
+                Err(e) => {
+                    faults.record("receive_failed", Instant::now(), e);
+                    break;
+                }
+            };
+            let started = Instant::now();
+            let h = *sample.user_header();
+            let now_mono = ipc::monotonic_ns();
+            let (odom, status) = match latest_odom {
+                None => (OdomInput::Missing, map_status::ODOM_MISSING),
+                Some(o) if now_mono.saturating_sub(o.rx_mono_ns) > odom_max_age_ns => {
+                    (OdomInput::Stale, map_status::ODOM_STALE)
+                }
+                Some(o) => (
+                    OdomInput::Fresh(Odom {
+                        pose: Pose2 {
+                            x: o.x,
+                            y: o.y,
+                            yaw: o.yaw,
+                        },
+                        v: f64::from(o.v),
+                        omega: f64::from(o.omega),
+                    }),
+                    0,
+                ),
+            };
+            if status == map_status::ODOM_STALE {
+                faults.record(
+                    "stale_odom",
+                    Instant::now(),
+                    "odometry is stale: the glass memory is not moved",
+                );
+            }
+            let stats = mapper.update(sample.payload(), odom, h.stamp_ns);
+            drop(sample);
+            plan_buf.clear();
+            plan_buf.extend(
+                mapper
+                    .classes()
+                    .iter()
+                    .zip(mapper.cost())
+                    .map(|(&class, &cost)| PlanCell { class, cost }),
+            );
+            layer_buf.clear();
+            for j in 0..n_layers {
+                mapper.layer_values(j, &mut one_layer);
+                layer_buf.extend_from_slice(&one_layer);
+            }
+            let o = latest_odom.unwrap_or_default();
+            let processing_us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
+            let header = MapHeader {
+                seq,
+                source_seq: h.seq,
+                stamp_ns: h.stamp_ns,
+                rx_mono_ns: h.rx_mono_ns,
+                odom_seq: o.seq,
+                odom_stamp_ns: o.stamp_ns,
+                x: o.x,
+                y: o.y,
+                yaw: o.yaw,
+                cells: grid.cells as u32,
+                cell_m: grid.cell_m,
+                layers: n_layers as u32,
+                processing_us,
+                status,
+                reserved: [0; 7],
+            };
+            if let Err(e) = plan_pub.publish(header, &plan_buf) {
+                faults.record("publish_failed", Instant::now(), e);
+            }
+            if let Err(e) = layers_pub.publish(header, &layer_buf) {
+                faults.record("publish_failed", Instant::now(), e);
+            }
+            tracing::debug!(
+                seq,
+                source_seq = h.seq,
+                processing_us,
+                glass_detected = stats.glass_detected,
+                glass_memory = stats.glass_memory,
+                status,
+                "map"
+            );
+            seq += 1;
+            spent_us += u64::from(processing_us);
+            since_report += 1;
+        }
+        if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
+            tracing::info!(
+                maps = seq,
+                mean_processing_us = spent_us / since_report,
+                "mapping; faults: {}",
+                faults.summary()
+            );
+            spent_us = 0;
+            since_report = 0;
+            last_report = Instant::now();
+        }
+        CallbackProgression::Continue
+    });
+    match result {
+        Ok(r) => tracing::info!(maps = seq, "stopping ({r:?}); faults: {}", faults.summary()),
+        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
+    }
+    Ok(())
+}

@@ -104,9 +104,10 @@ fn a_dim_cell_no_beam_passes_through_is_solid() {
     m.update(&pts, OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::SOLID);
     // with fewer single-echo returns than min_returns_solid it stays passable by equation 3
-    let mut p = MapperParams::default();
-    p.min_returns_solid = 3;
-    let mut m = Mapper::new(p);
+    let mut m = Mapper::new(MapperParams {
+        min_returns_solid: 3,
+        ..MapperParams::default()
+    });
     m.update(&pts[..2], OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
     // and so do dim returns that were not alone on their beam (grass, where beams die in it)
@@ -127,7 +128,7 @@ fn a_weak_echo_just_behind_a_bright_one_is_inside_the_same_object() {
     let mut m = mapper();
     // a bush: bright front at 2.0 m, a weak trace 0.3 m inside; grass: weak, then a wall far
     // behind
-    let pts = vec![
+    let pts = [
         pt(2.3, 1.0, 0.1, 3, 3, return_type::LAST),
         pt(2.0, 0.87, 0.087, 42, 3, return_type::STRONGEST),
         pt(4.5, -1.0, 0.1, 40, 3, return_type::LAST),
@@ -275,9 +276,10 @@ fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() 
 
 #[test]
 fn glass_memory_expires_by_age() {
-    let mut p = MapperParams::default();
-    p.glass_memory_ns = 1_000_000_000;
-    let mut m = Mapper::new(p);
+    let mut m = Mapper::new(MapperParams {
+        glass_memory_ns: 1_000_000_000,
+        ..MapperParams::default()
+    });
     m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
     m.update(&[], OdomInput::Fresh(Odom::default()), 2_000_000_000);
     assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);

@@ -5,6 +5,7 @@ mod procs;
 mod replay;
 mod score_map;
 mod sim;
+mod snapshot;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -38,6 +39,8 @@ enum Command {
     /// Score the mapper on simulated worlds against their ground truth: precision, recall and
     /// F-score per class.
     ScoreMap(score_map::ScoreMapArgs),
+    /// Write the next map the mapper publishes as a PNG, in the paper's colours.
+    Snapshot(snapshot::SnapshotArgs),
     /// Check the config file and print the settings in force.
     CheckConfig,
 }
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
         Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
+        Command::Snapshot(args) => snapshot::run(&config, args),
         Command::CheckConfig => {
             println!(
                 "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",
