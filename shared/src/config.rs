@@ -128,6 +128,9 @@ pub struct MapperConfig {
     pub gamma: f64,
     /// A cell with a return brighter than this (normalised) is solid, whatever its mean.
     pub solid_max: f64,
+    /// Single-echo and stopped returns count as evidence of an opaque surface from this
+    /// brightness (normalised).
+    pub opaque_min: f64,
     /// Points lower than this above the ground are ground, m.
     pub ground_clearance_m: f64,
     /// A cell with at least this many returns, none of which a beam passed through, is solid
@@ -162,6 +165,7 @@ impl Default for MapperConfig {
             full_scale: 100.0,
             gamma: 0.3,
             solid_max: 0.35,
+            opaque_min: 0.05,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -206,6 +210,7 @@ impl MapperConfig {
         r.check("mapper.full_scale", self.full_scale, 1.0, 255.0);
         r.check("mapper.gamma", self.gamma, 0.0, 1.0);
         r.check("mapper.solid_max", self.solid_max, 0.0, 2.55);
+        r.check("mapper.opaque_min", self.opaque_min, 0.0, 2.55);
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,

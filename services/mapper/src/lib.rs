@@ -51,6 +51,9 @@ pub struct MapperParams {
     pub gamma: f32,
     /// A cell with a return brighter than this (normalised) is solid.
     pub solid_max: f32,
+    /// Single-echo and stopped returns count as opaque evidence from this brightness
+    /// (normalised).
+    pub opaque_min: f32,
     /// Returns with none passed through that make a cell solid.
     pub min_returns_solid: u16,
     /// Glass spike detector.
@@ -77,6 +80,7 @@ impl MapperParams {
             full_scale: m.full_scale as f32,
             gamma: m.gamma as f32,
             solid_max: m.solid_max as f32,
+            opaque_min: m.opaque_min as f32,
             min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
@@ -330,6 +334,9 @@ impl Mapper {
         };
         let t_end = points.last().map_or(0, |p| p.time_offset_ns);
         let gamma_abs = self.params.gamma * self.params.full_scale;
+        // the single-echo and stopped cues only count returns at least this bright: a beam that
+        // clips one grass blade and then meets nothing (the sky) has one faint echo too
+        let opaque_min = (self.params.opaque_min * self.params.full_scale).round().clamp(0.0, 255.0) as u8;
         let deskew = v != 0.0 || omega != 0.0;
         for (k, p0) in points.iter().enumerate() {
             let mut p = *p0;
@@ -396,6 +403,7 @@ impl Mapper {
                     // what it passed — a surface, not the last blade of a spent beam
                     if q_nearer
                         && u16::from(p.intensity) > 3 * u16::from(q.intensity)
+                        && p.intensity >= opaque_min
                         && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
                     {
                         let fi = grid.index(fr, fc);
@@ -437,7 +445,7 @@ impl Mapper {
                 touch(&mut self.dirty, &mut self.touched, i);
                 let e = &mut self.evidence[i];
                 e.hits = e.hits.saturating_add(1);
-                if p.return_type == return_type::BOTH {
+                if p.return_type == return_type::BOTH && p.intensity >= opaque_min {
                     e.single = e.single.saturating_add(1);
                 }
             }

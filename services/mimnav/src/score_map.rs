@@ -128,6 +128,10 @@ fn cell(s: &ClassScore) -> String {
     if s.is_empty() {
         return "     –     ".into();
     }
+    if s.tp + s.fn_ == 0 {
+        // the class is not in this world: only wrong claims can be counted
+        return format!("– ({} cells claimed)", s.fp);
+    }
     format!("{:.3} {:.3} {:.3}", s.precision(), s.recall(), s.f_score())
 }
 
@@ -151,7 +155,7 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
     };
     let seed = args.seed.unwrap_or(config.sim.seed);
     println!(
-        "cells within {} m, one cell of tolerance; precision recall F-score per class (– where the class never occurs)\n",
+        "cells within {} m, one cell of tolerance; precision recall F-score per class (– where the class is not in the world)\n",
         args.range
     );
     println!(
