@@ -126,15 +126,15 @@ fn score_map_meets_the_targets_where_the_readme_says_it_does() {
         f(&s2, 0) >= 0.95 && f(&s2, 1) >= 0.95 && f(&s2, 2) >= 0.95,
         "scenario 2: {stdout}"
     );
-    // below the 0.95 target (see the README): regression floors
     let s3 = score_row(&stdout, "scenario 3");
     assert!(
-        f(&s3, 1) >= 0.95 && f(&s3, 0) >= 0.85,
+        f(&s3, 0) >= 0.95 && f(&s3, 1) >= 0.95,
         "scenario 3: {stdout}"
     );
+    // solid below the 0.95 target (see the README): a regression floor
     let s4 = score_row(&stdout, "scenario 4");
     assert!(
-        f(&s4, 1) >= 0.95 && f(&s4, 0) >= 0.45,
+        f(&s4, 1) >= 0.95 && f(&s4, 0) >= 0.78,
         "scenario 4: {stdout}"
     );
     let wall = score_row(&stdout, "one wall");

@@ -131,6 +131,9 @@ pub struct MapperConfig {
     /// Single-echo and stopped returns count as evidence of an opaque surface from this
     /// brightness (normalised).
     pub opaque_min: f64,
+    /// A cell with a return higher than this above the ground, that no beam passed through, is
+    /// solid (taller than grass grows), m.
+    pub tall_m: f64,
     /// Points lower than this above the ground are ground, m.
     pub ground_clearance_m: f64,
     /// A cell with at least this many returns, none of which a beam passed through, is solid
@@ -166,6 +169,7 @@ impl Default for MapperConfig {
             gamma: 0.3,
             solid_max: 0.35,
             opaque_min: 0.05,
+            tall_m: 1.0,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -211,6 +215,7 @@ impl MapperConfig {
         r.check("mapper.gamma", self.gamma, 0.0, 1.0);
         r.check("mapper.solid_max", self.solid_max, 0.0, 2.55);
         r.check("mapper.opaque_min", self.opaque_min, 0.0, 2.55);
+        r.check("mapper.tall_m", self.tall_m, 0.1, 10.0);
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,

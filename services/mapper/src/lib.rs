@@ -54,6 +54,9 @@ pub struct MapperParams {
     /// Single-echo and stopped returns count as opaque evidence from this brightness
     /// (normalised).
     pub opaque_min: f32,
+    /// A cell with a return higher than this above the ground that no beam passed through is
+    /// solid, m.
+    pub tall_m: f64,
     /// Returns with none passed through that make a cell solid.
     pub min_returns_solid: u16,
     /// Glass spike detector.
@@ -81,6 +84,7 @@ impl MapperParams {
             gamma: m.gamma as f32,
             solid_max: m.solid_max as f32,
             opaque_min: m.opaque_min as f32,
+            tall_m: m.tall_m,
             min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
@@ -336,7 +340,9 @@ impl Mapper {
         let gamma_abs = self.params.gamma * self.params.full_scale;
         // the single-echo and stopped cues only count returns at least this bright: a beam that
         // clips one grass blade and then meets nothing (the sky) has one faint echo too
-        let opaque_min = (self.params.opaque_min * self.params.full_scale).round().clamp(0.0, 255.0) as u8;
+        let opaque_min = (self.params.opaque_min * self.params.full_scale)
+            .round()
+            .clamp(0.0, 255.0) as u8;
         let deskew = v != 0.0 || omega != 0.0;
         for (k, p0) in points.iter().enumerate() {
             let mut p = *p0;
@@ -445,6 +451,9 @@ impl Mapper {
                 touch(&mut self.dirty, &mut self.touched, i);
                 let e = &mut self.evidence[i];
                 e.hits = e.hits.saturating_add(1);
+                if e.hits == 1 || p.z > e.top_z {
+                    e.top_z = p.z;
+                }
                 if p.return_type == return_type::BOTH && p.intensity >= opaque_min {
                     e.single = e.single.saturating_add(1);
                 }
@@ -523,6 +532,7 @@ impl Mapper {
         // classes (equations 3–5) and cost
         let gamma = self.params.gamma;
         let solid_max_abs = self.params.solid_max * self.params.full_scale;
+        let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
         for i in 0..n2 {
             let class = if self.glass_now[i] {
                 cell_class::GLASS
@@ -542,6 +552,9 @@ impl Mapper {
                 let opaque =
                     e.passed == 0 && ended >= self.params.min_returns_solid && 2 * ended > e.hits;
                 let opaque = opaque || 2 * e.inside >= e.hits;
+                // taller than grass grows and no beam passed through it: a trunk or a bush
+                let tall = e.top_z > tall_z && e.passed == 0;
+                let opaque = opaque || tall;
                 if mean <= gamma && !opaque && !bright {
                     cell_class::PASSABLE
                 } else {
@@ -589,6 +602,8 @@ struct Evidence {
     inside: u16,
     /// Last returns much stronger than the rest of their firing.
     stopped: u16,
+    /// Height of the highest return, sensor frame, m.
+    top_z: f32,
 }
 
 #[inline]
