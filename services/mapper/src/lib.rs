@@ -163,8 +163,8 @@ pub struct Mapper {
     /// Cells written in this revolution (cleared at the next).
     touched: Vec<u32>,
     dirty: Vec<bool>,
-    glass_now: Vec<bool>,
-    glass_drawn: Vec<bool>,
+    /// Cells the glass memory covers, this revolution.
+    glass_drawn: Vec<usize>,
     reach: Vec<f32>,
     cell_range: Vec<f32>,
     cell_bin: Vec<u16>,
@@ -231,8 +231,7 @@ impl Mapper {
             evidence: vec![Evidence::default(); n2],
             touched: Vec::with_capacity(n2),
             dirty: vec![false; n2],
-            glass_now: vec![false; n2],
-            glass_drawn: vec![false; n2],
+            glass_drawn: Vec::new(),
             reach: vec![0.0; REACH_BINS],
             cell_range,
             cell_bin,
@@ -316,14 +315,12 @@ impl Mapper {
             self.dirty[i] = false;
         }
         self.touched.clear();
-        self.glass_now.fill(false);
-        self.glass_drawn.fill(false);
+        self.glass_drawn.clear();
         self.reach.fill(0.0);
         for r in &mut self.rings {
             r.clear();
         }
         let grid = self.params.grid;
-        let n2 = grid.len();
         let ground_z = -(self.params.sensor_height_m - self.params.ground_clearance_m) as f32;
         let (below, above, zero, minus) =
             (self.roles[0], self.roles[1], self.roles[2], self.roles[3]);
@@ -499,10 +496,9 @@ impl Mapper {
                 }
             }
         }
-        for &i in &glass_cells {
-            self.glass_now[i] = true;
-        }
-        stats.glass_detected = self.glass_now.iter().filter(|&&g| g).count() as u32;
+        glass_cells.sort_unstable();
+        glass_cells.dedup();
+        stats.glass_detected = glass_cells.len() as u32;
         // the memory (equations 6 and 7)
         match odom {
             OdomInput::Fresh(Odom { pose, .. }) => {
@@ -529,53 +525,64 @@ impl Mapper {
             );
         }
         stats.glass_memory = self.memory.len() as u32;
-        // classes (equations 3–5) and cost
-        let gamma = self.params.gamma;
-        let solid_max_abs = self.params.solid_max * self.params.full_scale;
-        let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
-        for i in 0..n2 {
-            let class = if self.glass_now[i] {
-                cell_class::GLASS
-            } else if self.evidence[i].hits > 0 {
-                let mean = self
-                    .mean(below, i)
-                    .max(self.mean(above, i))
-                    .max(self.mean(zero, i));
-                let brightest = [below, above, zero]
-                    .iter()
-                    .map(|&j| self.layer[i * m + j].max)
-                    .max()
-                    .unwrap_or(0);
-                let bright = f32::from(brightest) > solid_max_abs;
-                let e = self.evidence[i];
-                let ended = e.single.saturating_add(e.stopped);
-                let opaque =
-                    e.passed == 0 && ended >= self.params.min_returns_solid && 2 * ended > e.hits;
-                let opaque = opaque || 2 * e.inside >= e.hits;
-                // taller than grass grows and no beam passed through it: a trunk or a bush
-                let tall = e.top_z > tall_z && e.passed == 0;
-                let opaque = opaque || tall;
-                if mean <= gamma && !opaque && !bright {
-                    cell_class::PASSABLE
-                } else {
-                    cell_class::SOLID
-                }
-            } else if self.cell_range[i] < self.reach[usize::from(self.cell_bin[i])] + grid.cell_m {
+        // classes (equations 3–5) and cost: first free or unknown everywhere (one pass the
+        // compiler can vectorise), then the cells with returns, then glass on top
+        let reach_margin = grid.cell_m;
+        for ((class, &range), &bin) in self
+            .classes
+            .iter_mut()
+            .zip(&self.cell_range)
+            .zip(&self.cell_bin)
+        {
+            *class = if range < self.reach[usize::from(bin)] + reach_margin {
                 cell_class::FREE
             } else {
                 cell_class::UNKNOWN
             };
-            let class = if self.glass_drawn[i] && class != cell_class::SOLID {
-                cell_class::GLASS
+        }
+        self.cost.fill(0);
+        let gamma = self.params.gamma;
+        let solid_max_abs = self.params.solid_max * self.params.full_scale;
+        let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
+        for t in 0..self.touched.len() {
+            let i = self.touched[t] as usize;
+            let e = self.evidence[i];
+            if e.hits == 0 {
+                continue;
+            }
+            let mean = self
+                .mean(below, i)
+                .max(self.mean(above, i))
+                .max(self.mean(zero, i));
+            let brightest = [below, above, zero]
+                .iter()
+                .map(|&j| self.layer[i * m + j].max)
+                .max()
+                .unwrap_or(0);
+            let bright = f32::from(brightest) > solid_max_abs;
+            let ended = e.single.saturating_add(e.stopped);
+            let opaque =
+                e.passed == 0 && ended >= self.params.min_returns_solid && 2 * ended > e.hits;
+            let opaque = opaque || 2 * e.inside >= e.hits;
+            // taller than grass grows and no beam passed through it: a trunk or a bush
+            let tall = e.top_z > tall_z && e.passed == 0;
+            if mean <= gamma && !opaque && !tall && !bright {
+                self.classes[i] = cell_class::PASSABLE;
+                self.cost[i] = self.params.passable_cost;
             } else {
-                class
-            };
-            self.classes[i] = class;
-            self.cost[i] = match class {
-                cell_class::SOLID | cell_class::GLASS => 255,
-                cell_class::PASSABLE => self.params.passable_cost,
-                _ => 0,
-            };
+                self.classes[i] = cell_class::SOLID;
+                self.cost[i] = 255;
+            }
+        }
+        for &i in &self.glass_drawn {
+            if self.classes[i] != cell_class::SOLID {
+                self.classes[i] = cell_class::GLASS;
+                self.cost[i] = 255;
+            }
+        }
+        for &i in &glass_cells {
+            self.classes[i] = cell_class::GLASS;
+            self.cost[i] = 255;
         }
         stats
     }
