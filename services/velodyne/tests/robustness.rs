@@ -29,6 +29,15 @@ fn temp_path(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("mimnav-robustness-{}-{name}", std::process::id()))
 }
 
+/// Removes a test's file even when an assertion fails first.
+struct Cleanup(std::path::PathBuf);
+
+impl Drop for Cleanup {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
 fn write_capture(path: &std::path::Path, payloads: &[Vec<u8>]) {
     let file = std::fs::File::create(path).expect("create");
     let mut w = PcapDatagramWriter::new(std::io::BufWriter::new(file)).expect("header");
@@ -90,6 +99,7 @@ proptest! {
     #[test]
     fn arbitrary_files_never_panic_the_reader(bytes in prop::collection::vec(any::<u8>(), 0..600)) {
         let path = temp_path("arbitrary.pcap");
+        let _cleanup = Cleanup(path.clone());
         std::fs::write(&path, &bytes).expect("write");
         if let Ok(mut r) = CaptureReader::open(&path) {
             for _ in 0..1000 {
@@ -99,7 +109,6 @@ proptest! {
                 }
             }
         }
-        std::fs::remove_file(&path).ok();
     }
 
     #[test]
@@ -109,6 +118,7 @@ proptest! {
     ) {
         let payloads: Vec<Vec<u8>> = (0..3u8).map(|i| vec![i; 1206]).collect();
         let path = temp_path(&format!("damaged-{cut}.pcap"));
+        let _cleanup = Cleanup(path.clone());
         write_capture(&path, &payloads);
         let mut bytes = std::fs::read(&path).expect("read");
         let full_len = bytes.len();
@@ -135,7 +145,6 @@ proptest! {
             }
         }
         prop_assert!(n <= payloads.len() + 1);
-        std::fs::remove_file(&path).ok();
     }
 }
 
@@ -143,6 +152,7 @@ proptest! {
 fn truncated_capture_names_the_record() {
     let payloads: Vec<Vec<u8>> = (0..3u8).map(|i| vec![i; 1206]).collect();
     let path = temp_path("truncated.pcap");
+    let _cleanup = Cleanup(path.clone());
     write_capture(&path, &payloads);
     let bytes = std::fs::read(&path).expect("read");
     // cut the third record in half: 24-byte header + 2 × (16 + 1248) = 2552
@@ -154,7 +164,6 @@ fn truncated_capture_names_the_record() {
     let msg = e.to_string();
     assert!(msg.contains("byte offset 2552"), "{msg}");
     assert!(msg.contains(&path.display().to_string()), "{msg}");
-    std::fs::remove_file(&path).ok();
 }
 
 #[test]
@@ -164,13 +173,13 @@ fn missing_and_foreign_files_are_named() {
         .expect("missing");
     assert!(e.to_string().contains("/nonexistent/x.pcap"), "{e}");
     let path = temp_path("text.pcap");
+    let _cleanup = Cleanup(path.clone());
     std::fs::write(&path, "this is not a capture at all, just text\n").expect("write");
     let e = CaptureReader::open(&path).err().expect("not a capture");
     assert!(
         e.to_string().contains("not a pcap or pcapng capture"),
         "{e}"
     );
-    std::fs::remove_file(&path).ok();
 }
 
 fn channels(d: u16, r: u8) -> [(u16, u8); CHANNELS] {
