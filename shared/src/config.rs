@@ -153,6 +153,9 @@ pub struct MapperConfig {
     pub glass_memory_m: f64,
     /// Gaps up to this long between glass detections along a pane are filled, m.
     pub glass_gap_fill_m: f64,
+    /// A pane is extended along its line through free cells to a solid cell within this, m
+    /// (0: never).
+    pub glass_extend_m: f64,
     /// Planning cost of a passable cell, 0–1 (free 0, solid and glass 1).
     pub passable_cost: f64,
     /// Odometry older than this is stale: the glass memory is not moved, m.
@@ -179,6 +182,7 @@ impl Default for MapperConfig {
             glass_memory_s: 120.0,
             glass_memory_m: 8.0,
             glass_gap_fill_m: 0.8,
+            glass_extend_m: 3.0,
             passable_cost: 0.2,
             odom_max_age_s: 0.5,
             points_deadline_s: 0.5,
@@ -240,6 +244,7 @@ impl MapperConfig {
         r.check("mapper.glass_memory_s", self.glass_memory_s, 0.0, 86400.0);
         r.check("mapper.glass_memory_m", self.glass_memory_m, 0.0, 1000.0);
         r.check("mapper.glass_gap_fill_m", self.glass_gap_fill_m, 0.0, 10.0);
+        r.check("mapper.glass_extend_m", self.glass_extend_m, 0.0, 20.0);
         r.check("mapper.passable_cost", self.passable_cost, 0.0, 1.0);
         r.check("mapper.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check(

@@ -23,6 +23,10 @@ fn time(name: &str, revs: &[Vec<Point>]) {
     for r in revs {
         mapper.update(r, odom, 0);
     }
+    let stats = revs
+        .last()
+        .map(|r| mapper.update(r, odom, 0))
+        .unwrap_or_default();
     let mut best = f64::INFINITY;
     let mut total = 0.0;
     let mut n = 0;
@@ -38,9 +42,17 @@ fn time(name: &str, revs: &[Vec<Point>]) {
         }
     }
     let points = revs.iter().map(Vec::len).sum::<usize>() / revs.len().max(1);
+    let stats = revs
+        .last()
+        .map(|r| mapper.update(r, odom, 0))
+        .unwrap_or_default();
     println!(
-        "{name}: {points} points a revolution: mean {:.0} µs, best {best:.0} µs ({n} revolutions)",
-        total / n as f64
+        "{name}: {points} points a revolution: mean {:.0} µs, best {best:.0} µs ({n} revolutions); \
+         glass cells detected {}, in memory {}, extrapolated {}",
+        total / n as f64,
+        stats.glass_detected,
+        stats.glass_memory,
+        stats.glass_extended
     );
 }
 

@@ -150,24 +150,36 @@ impl GlassMemory {
     }
 
     /// Draws the memory into `grid` around `pose` (equation 7): pushes the indices of the glass
-    /// cells to `cells` (a cell may come more than once), filling gaps up to `gap_fill_m`
-    /// between entries along a line.
-    pub fn draw(&self, pose: &Pose2, grid: GridSpec, gap_fill_m: f64, cells: &mut Vec<usize>) {
+    /// cells to `cells`, each once, filling gaps up to `gap_fill_m` between entries along a line.
+    /// `marked` (one flag per cell, all false) tracks what was pushed and is left all false.
+    pub fn draw(
+        &self,
+        pose: &Pose2,
+        grid: GridSpec,
+        gap_fill_m: f64,
+        cells: &mut Vec<usize>,
+        marked: &mut [bool],
+    ) {
+        let first = cells.len();
+        let mut push = |i: usize, cells: &mut Vec<usize>| {
+            if !marked[i] {
+                marked[i] = true;
+                cells.push(i);
+            }
+        };
         let mut pts: Vec<(f64, f64)> = Vec::with_capacity(self.entries.len());
         for (x, y, _) in self.entries.values() {
             let (rx, ry) = pose.to_robot(*x, *y);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
-                cells.push(grid.index(r, c));
+                push(grid.index(r, c), cells);
                 pts.push((rx, ry));
             }
         }
-        if gap_fill_m <= 0.0 || pts.len() < 2 {
-            return;
-        }
         // join entries closer than the gap: a pane detected in pieces becomes one
+        let fill = gap_fill_m > 0.0 && pts.len() >= 2;
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         let step = f64::from(grid.cell_m) * 0.5;
-        for i in 0..pts.len() {
+        for i in 0..if fill { pts.len() } else { 0 } {
             for j in i + 1..pts.len() {
                 if pts[j].0 - pts[i].0 > gap_fill_m {
                     break;
@@ -182,12 +194,128 @@ impl GlassMemory {
                     let x = pts[i].0 + t * (pts[j].0 - pts[i].0);
                     let y = pts[i].1 + t * (pts[j].1 - pts[i].1);
                     if let Some((r, c)) = grid.cell_of(x as f32, y as f32) {
-                        cells.push(grid.index(r, c));
+                        push(grid.index(r, c), cells);
                     }
                 }
             }
         }
+        for &i in &cells[first..] {
+            marked[i] = false;
+        }
     }
+}
+
+/// Extends panes to the solid structure that holds them (the extrapolation of the paper's
+/// Fig. 5: "the glass between the pillars is extrapolated").
+///
+/// The glass cells are grouped (cells closer than `link_m`); a group of at least three cells
+/// that lies along a line is extended from both ends along that line through free cells, and the
+/// extension is kept only where it meets a solid cell within `max_m` — so a pane between pillars
+/// closes up, while a detection with nothing solid in line (or a passable curtain, or unknown
+/// space, in the way) is left as it is. Returns the cells added.
+pub fn extend_to_solids(
+    glass: &[usize],
+    classes: &[u8],
+    grid: GridSpec,
+    link_m: f32,
+    max_m: f32,
+    marked: &mut [bool],
+) -> Vec<usize> {
+    use mimnav_shared::topics::cell_class;
+    let mut added = Vec::new();
+    if max_m <= 0.0 || glass.len() < 3 {
+        return added;
+    }
+    // group by flood fill over the grid (neighbours within link_m), unmarking as it goes, so
+    // `marked` ends all false again
+    for &i in glass {
+        marked[i] = true;
+    }
+    let reach = (link_m / grid.cell_m).floor() as i64;
+    let n = grid.cells as i64;
+    let step = grid.cell_m * 0.5;
+    let mut members: Vec<(f32, f32)> = Vec::new();
+    let mut stack: Vec<usize> = Vec::new();
+    for &start in glass {
+        if !marked[start] {
+            continue;
+        }
+        marked[start] = false;
+        members.clear();
+        stack.push(start);
+        while let Some(a) = stack.pop() {
+            members.push(grid.center_of(a / grid.cells, a % grid.cells));
+            let (r, c) = ((a / grid.cells) as i64, (a % grid.cells) as i64);
+            for dr in -reach..=reach {
+                for dc in -reach..=reach {
+                    let (rr, cc) = (r + dr, c + dc);
+                    if rr < 0 || cc < 0 || rr >= n || cc >= n || dr * dr + dc * dc > reach * reach {
+                        continue;
+                    }
+                    let b = (rr * n + cc) as usize;
+                    if marked[b] {
+                        marked[b] = false;
+                        stack.push(b);
+                    }
+                }
+            }
+        }
+        if members.len() < 3 {
+            continue;
+        }
+        // principal direction of the group
+        let count = members.len() as f32;
+        let mx = members.iter().map(|p| p.0).sum::<f32>() / count;
+        let my = members.iter().map(|p| p.1).sum::<f32>() / count;
+        let (mut sxx, mut syy, mut sxy) = (0.0f32, 0.0f32, 0.0f32);
+        for p in &members {
+            let (dx, dy) = (p.0 - mx, p.1 - my);
+            sxx += dx * dx;
+            syy += dy * dy;
+            sxy += dx * dy;
+        }
+        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (uy, ux) = angle.sin_cos();
+        // elongated: the spread across the line is small against the spread along it
+        let (mut lo, mut hi, mut across) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+        for p in &members {
+            let along = (p.0 - mx) * ux + (p.1 - my) * uy;
+            lo = lo.min(along);
+            hi = hi.max(along);
+            across = across.max((-(p.0 - mx) * uy + (p.1 - my) * ux).abs());
+        }
+        if hi - lo < 2.0 * grid.cell_m || across > (hi - lo) * 0.25 + grid.cell_m {
+            continue;
+        }
+        for (from, dir) in [(hi, 1.0f32), (lo, -1.0f32)] {
+            let path_start = added.len();
+            let mut t = step;
+            let mut closed = false;
+            while t <= max_m {
+                let s = from + dir * t;
+                let Some((r, c)) = grid.cell_of(mx + s * ux, my + s * uy) else {
+                    break;
+                };
+                let i = grid.index(r, c);
+                match classes[i] {
+                    cell_class::FREE => added.push(i),
+                    cell_class::GLASS => {}
+                    cell_class::SOLID => {
+                        closed = true;
+                        break;
+                    }
+                    _ => break,
+                }
+                t += step;
+            }
+            if !closed {
+                added.truncate(path_start);
+            }
+        }
+    }
+    added.sort_unstable();
+    added.dedup();
+    added
 }
 
 #[cfg(test)]
@@ -263,7 +391,7 @@ mod tests {
             yaw: std::f64::consts::FRAC_PI_2,
         };
         let mut cells = Vec::new();
-        m.draw(&p1, grid, 0.0, &mut cells);
+        m.draw(&p1, grid, 0.0, &mut cells, &mut vec![false; grid.len()]);
         let (r, c) = grid.cell_of(0.0, -1.0).expect("inside");
         assert_eq!(
             cells,
@@ -278,6 +406,63 @@ mod tests {
     }
 
     #[test]
+    fn a_pane_is_extended_to_the_pillars_but_not_into_the_open() {
+        use mimnav_shared::topics::cell_class;
+        let grid = GridSpec {
+            cells: 100,
+            cell_m: 0.05,
+        };
+        let mut classes = vec![cell_class::FREE; grid.len()];
+        let idx = |x: f32, y: f32| {
+            let (r, c) = grid.cell_of(x, y).expect("inside");
+            grid.index(r, c)
+        };
+        // a pane along y at x = 1.5, seen between y = -0.1 and 0.1; pillars at y = ±1.0
+        let glass: Vec<usize> = (-2..=2).map(|k| idx(1.5, k as f32 * 0.05)).collect();
+        classes[idx(1.5, 1.0)] = cell_class::SOLID;
+        classes[idx(1.5, -1.0)] = cell_class::SOLID;
+        let added = extend_to_solids(
+            &glass,
+            &classes,
+            grid,
+            0.3,
+            2.0,
+            &mut vec![false; grid.len()],
+        );
+        assert!(
+            added.contains(&idx(1.5, 0.6)) && added.contains(&idx(1.5, -0.6)),
+            "closed up to the pillars"
+        );
+        assert!(!added.contains(&idx(1.5, 1.2)), "not past them");
+        // without a pillar in line on one side, that side stays open
+        classes[idx(1.5, -1.0)] = cell_class::FREE;
+        let added = extend_to_solids(
+            &glass,
+            &classes,
+            grid,
+            0.3,
+            2.0,
+            &mut vec![false; grid.len()],
+        );
+        assert!(added.contains(&idx(1.5, 0.6)));
+        assert!(
+            !added.contains(&idx(1.5, -0.6)),
+            "nothing solid in line: no extrapolation"
+        );
+        // a passable curtain in the way stops it
+        classes[idx(1.5, 0.5)] = cell_class::PASSABLE;
+        let added = extend_to_solids(
+            &glass,
+            &classes,
+            grid,
+            0.3,
+            2.0,
+            &mut vec![false; grid.len()],
+        );
+        assert!(added.is_empty(), "{added:?}");
+    }
+
+    #[test]
     fn gaps_along_a_pane_are_filled() {
         let grid = GridSpec {
             cells: 200,
@@ -289,7 +474,7 @@ mod tests {
         m.add(&p, 3.0, 0.3, 0);
         m.add(&p, 3.0, 2.0, 0); // too far to join
         let mut cells = Vec::new();
-        m.draw(&p, grid, 0.8, &mut cells);
+        m.draw(&p, grid, 0.8, &mut cells, &mut vec![false; grid.len()]);
         let (r, c) = grid.cell_of(3.0, 0.0).expect("inside");
         assert!(cells.contains(&grid.index(r, c)), "the 0.6 m gap is filled");
         let (r, c) = grid.cell_of(3.0, 1.2).expect("inside");

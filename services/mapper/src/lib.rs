@@ -67,6 +67,8 @@ pub struct MapperParams {
     pub glass_memory_m: f64,
     /// Glass memory: gap fill, m.
     pub glass_gap_fill_m: f64,
+    /// Panes are extended along their line to a solid within this, m (0: never).
+    pub glass_extend_m: f32,
     /// Cost of a passable cell, 0–255.
     pub passable_cost: u8,
 }
@@ -95,6 +97,7 @@ impl MapperParams {
             glass_memory_ns: (m.glass_memory_s * 1e9) as u64,
             glass_memory_m: m.glass_memory_m,
             glass_gap_fill_m: m.glass_gap_fill_m,
+            glass_extend_m: m.glass_extend_m as f32,
             passable_cost: (m.passable_cost * 255.0).round() as u8,
         }
     }
@@ -141,6 +144,8 @@ pub struct UpdateStats {
     pub glass_detected: u32,
     /// Entries in the glass memory.
     pub glass_memory: u32,
+    /// Cells added by extending panes to the solids that hold them.
+    pub glass_extended: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -165,6 +170,8 @@ pub struct Mapper {
     dirty: Vec<bool>,
     /// Cells the glass memory covers, this revolution.
     glass_drawn: Vec<usize>,
+    /// Scratch flags for drawing the memory (all false between updates).
+    glass_marked: Vec<bool>,
     reach: Vec<f32>,
     cell_range: Vec<f32>,
     cell_bin: Vec<u16>,
@@ -232,6 +239,7 @@ impl Mapper {
             touched: Vec::with_capacity(n2),
             dirty: vec![false; n2],
             glass_drawn: Vec::new(),
+            glass_marked: vec![false; n2],
             reach: vec![0.0; REACH_BINS],
             cell_range,
             cell_bin,
@@ -522,6 +530,7 @@ impl Mapper {
                 grid,
                 self.params.glass_gap_fill_m,
                 &mut self.glass_drawn,
+                &mut self.glass_marked,
             );
         }
         stats.glass_memory = self.memory.len() as u32;
@@ -584,9 +593,28 @@ impl Mapper {
             self.classes[i] = cell_class::GLASS;
             self.cost[i] = 255;
         }
+        // extrapolate panes to the solid structure that holds them; drawn afresh each revolution
+        // from the detections only, so an extrapolation never feeds the next one
+        self.glass_drawn.extend_from_slice(&glass_cells);
+        let added = glass::extend_to_solids(
+            &self.glass_drawn,
+            &self.classes,
+            grid,
+            EXTEND_LINK_M,
+            self.params.glass_extend_m,
+            &mut self.glass_marked,
+        );
+        for &i in &added {
+            self.classes[i] = cell_class::GLASS;
+            self.cost[i] = 255;
+        }
+        stats.glass_extended = added.len() as u32;
         stats
     }
 }
+
+/// Glass cells closer than this belong to one pane when extrapolating, m.
+const EXTEND_LINK_M: f32 = 0.3;
 
 /// One layer of one cell.
 #[derive(Debug, Clone, Copy, Default)]
