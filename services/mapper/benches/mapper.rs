@@ -23,10 +23,6 @@ fn time(name: &str, revs: &[Vec<Point>]) {
     for r in revs {
         mapper.update(r, odom, 0);
     }
-    let stats = revs
-        .last()
-        .map(|r| mapper.update(r, odom, 0))
-        .unwrap_or_default();
     let mut best = f64::INFINITY;
     let mut total = 0.0;
     let mut n = 0;
