@@ -100,6 +100,17 @@ fn near(cells: &[u8], grid: GridSpec, r: usize, c: usize, class: u8) -> bool {
 
 /// Scores one map against the truth of the same instant (see the module docs).
 pub fn score(map: &[u8], truth: &[u8], grid: GridSpec, range_m: f32) -> MapScore {
+    score_excluding(map, truth, grid, range_m, None)
+}
+
+/// [`score`], leaving out the cells `exclude` marks (neither right nor wrong).
+pub fn score_excluding(
+    map: &[u8],
+    truth: &[u8],
+    grid: GridSpec,
+    range_m: f32,
+    exclude: Option<&[bool]>,
+) -> MapScore {
     let mut s = MapScore::default();
     for r in 0..grid.cells {
         for c in 0..grid.cells {
@@ -108,6 +119,9 @@ pub fn score(map: &[u8], truth: &[u8], grid: GridSpec, range_m: f32) -> MapScore
                 continue;
             }
             let i = grid.index(r, c);
+            if exclude.is_some_and(|e| e[i]) {
+                continue;
+            }
             let m = map[i];
             let t = truth[i];
             for (class, cs) in [

@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use mimnav_mapper::glass::Pose2;
-use mimnav_mapper::score::{ClassScore, MapScore, score};
+use mimnav_mapper::score::{ClassScore, MapScore, score, score_excluding};
 use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
 use mimnav_shared::config::Config;
 use mimnav_sim::motion::WaypointDriver;
@@ -45,6 +45,10 @@ pub struct WorldScore {
     pub total: MapScore,
     /// The last revolution alone (what the map holds at the end of the route).
     pub last: MapScore,
+    /// Summed over the scored revolutions, leaving out the cells of obstacles hidden in grass.
+    pub visible: MapScore,
+    /// Obstacles hidden in grass (no taller than the grass they stand in).
+    pub hidden: usize,
     /// Revolutions scored.
     pub revolutions: u64,
     /// How the survey ended.
@@ -63,6 +67,9 @@ pub fn score_world(
 ) -> Result<WorldScore> {
     let world = WorldFile::load(path)?;
     let scene = world.compile();
+    let hidden = scene.only(&scene.hidden_in_grass());
+    let mut hidden_cells = Vec::new();
+    let mut exclude = Vec::new();
     let survey = scene.survey.clone();
     let mut sim = Sim::new(
         scene,
@@ -76,6 +83,7 @@ pub fn score_world(
     let grid = config.map.grid();
     let mut truth = Vec::new();
     let (mut total, mut last) = (MapScore::default(), MapScore::default());
+    let mut visible = MapScore::default();
     let (mut revolutions, mut seen) = (0u64, 0u64);
     let mut mapper_ns = 0u128;
     let limits = sim.settings().limits;
@@ -109,6 +117,24 @@ pub fn score_world(
         if seen > warmup {
             last = score(mapper.classes(), &truth, grid, range);
             total.add(&last);
+            if hidden.objects.is_empty() {
+                visible.add(&last);
+            } else {
+                mimnav_sim::truth::truth_grid(&hidden, b.pose, grid, &mut hidden_cells);
+                exclude.clear();
+                exclude.extend(
+                    hidden_cells
+                        .iter()
+                        .map(|&c| c != mimnav_shared::topics::cell_class::FREE),
+                );
+                visible.add(&score_excluding(
+                    mapper.classes(),
+                    &truth,
+                    grid,
+                    range,
+                    Some(&exclude),
+                ));
+            }
             revolutions += 1;
         }
         let (v, w) = driver.command(b.pose, &limits);
@@ -118,6 +144,8 @@ pub fn score_world(
         name: world.name,
         total,
         last,
+        visible,
+        hidden: hidden.objects.len(),
         revolutions,
         outcome: sim.outcome(),
         mapper_us: mapper_ns as f64 / 1e3 / seen.max(1) as f64,
@@ -159,9 +187,9 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
         args.range
     );
     println!(
-        "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | revolutions | route | mapper µs/rev |"
+        "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | solid, obstacles hidden in grass left out | revolutions | route | mapper µs/rev |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for path in &worlds {
         let s = score_world(config, path, seed, args.range, args.warmup)?;
         let outcome = match s.outcome {
@@ -170,12 +198,17 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
             Outcome::Timeout => "timeout".to_string(),
         };
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {:.0} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
             s.name,
             cell(&s.total.solid),
             cell(&s.total.passable),
             cell(&s.total.glass),
             cell(&s.last.glass),
+            if s.hidden == 0 {
+                "(none hidden)".to_string()
+            } else {
+                format!("{} ({} hidden)", cell(&s.visible.solid), s.hidden)
+            },
             s.revolutions,
             outcome,
             s.mapper_us

@@ -464,6 +464,44 @@ fn bound_of(shape: &Shape) -> ([f64; 2], f64) {
     }
 }
 
+impl Scene {
+    /// Solid objects hidden in grass: standing inside a grass patch and no taller than it. A lidar
+    /// inside or above the grass sees them only through it; the foliage classifier, not the
+    /// intensity map, is meant to find them (issue 6).
+    pub fn hidden_in_grass(&self) -> Vec<usize> {
+        let top = |shape: &Shape| match shape {
+            Shape::Sheet { z1, .. } | Shape::Prism { z1, .. } | Shape::Cylinder { z1, .. } => *z1,
+        };
+        self.objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| {
+                o.class == cell_class::SOLID && matches!(o.material, Material::Opaque { .. })
+            })
+            .filter(|(_, o)| {
+                self.objects.iter().any(|g| {
+                    g.class == cell_class::PASSABLE
+                        && matches!(g.material, Material::Foliage { .. })
+                        && crate::geometry::footprint_distance(&g.shape, o.bound.0) == 0.0
+                        && top(&g.shape) >= top(&o.shape)
+                })
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// A scene with only the objects `keep` (for masks of chosen objects).
+    pub fn only(&self, keep: &[usize]) -> Scene {
+        Scene {
+            objects: keep
+                .iter()
+                .filter_map(|&i| self.objects.get(i).cloned())
+                .collect(),
+            ..self.clone()
+        }
+    }
+}
+
 impl WorldFile {
     /// Reads and checks a world file.
     pub fn load(path: &Path) -> Result<WorldFile, WorldError> {
