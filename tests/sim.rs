@@ -166,3 +166,42 @@ fn lockstep_waits_for_the_stack_and_follows_its_commands() {
     );
     assert!(answered >= 28, "{answered}");
 }
+
+#[test]
+fn the_whole_stack_drives_the_open_field_to_its_goal_in_lockstep() {
+    let domain = PrivateDomain::new("e2e-stack");
+    let (dp, pp) = (free_udp_port(), free_udp_port());
+    let args = stack_args(&domain, dp, pp);
+    let _driver = Proc::start(Command::new(bin("mimnav-velodyne")).args(&args));
+    let _mapper = Proc::start(Command::new(bin("mimnav-mapper")).args(&args));
+    let _planner = Proc::start(Command::new(bin("mimnav-planner")).args(&args));
+    std::thread::sleep(Duration::from_millis(500));
+    let goal = Command::new(bin("mimnav"))
+        .args(&args)
+        .args(["goal", "8", "0"])
+        .output()
+        .expect("mimnav goal");
+    assert!(
+        goal.status.success(),
+        "{}",
+        String::from_utf8_lossy(&goal.stderr)
+    );
+    let world = root().join("config/worlds/open_field.toml");
+    let mut sim = Proc::start(
+        Command::new(bin("mimnav-sim"))
+            .args(&args)
+            .arg("--world")
+            .arg(&world)
+            .args(["--lockstep", "--json"])
+            .stdout(Stdio::piped()),
+    );
+    let status = sim
+        .wait(Duration::from_secs(120))
+        .expect("the episode ends");
+    let mut out = String::new();
+    std::io::Read::read_to_string(&mut sim.0.stdout.take().expect("stdout"), &mut out)
+        .expect("read");
+    assert!(status.success(), "{status}: {out}");
+    assert!(out.contains("\"outcome\":\"goal_reached\""), "{out}");
+    assert!(out.contains("\"lockstep_timeouts\":0"), "{out}");
+}

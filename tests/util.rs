@@ -90,8 +90,11 @@ impl Proc {
 }
 
 impl Drop for Proc {
+    /// SIGTERM first, so a service cleans up its shared memory; SIGKILL if it does not stop.
     fn drop(&mut self) {
-        let _ = self.0.kill();
+        if self.0.try_wait().ok().flatten().is_none() && self.terminate(Duration::from_secs(2)).is_none() {
+            let _ = self.0.kill();
+        }
         let _ = self.0.wait();
     }
 }

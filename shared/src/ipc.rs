@@ -507,6 +507,16 @@ pub fn odom_subscriber(node: &Node<Svc>) -> Result<ValueSubscriber<topics::Odome
     ValueSubscriber::open(node, topics::ODOM)
 }
 
+/// Opens `goal` for publishing.
+pub fn goal_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::Goal>, IpcError> {
+    ValuePublisher::open(node, topics::GOAL)
+}
+
+/// Opens `goal` for receiving.
+pub fn goal_subscriber(node: &Node<Svc>) -> Result<ValueSubscriber<topics::Goal>, IpcError> {
+    ValueSubscriber::open(node, topics::GOAL)
+}
+
 /// Publisher of `sim/truth`.
 pub type TruthPublisher = SlicePublisher<u8, topics::TruthHeader>;
 /// Subscriber of `sim/truth`.
@@ -636,6 +646,14 @@ impl PrivateDomain {
 impl Drop for PrivateDomain {
     fn drop(&mut self) {
         let config = self.config();
+        // processes of the domain that died without cleaning up (killed) leave their shared
+        // memory behind: iceoryx2 removes it for dead nodes it still knows of
+        let _ = Node::<Svc>::list(&config.iceoryx2, |state| {
+            if let NodeState::<Svc>::Dead(view) = state {
+                let _ = view.try_remove_stale_resources();
+            }
+            CallbackProgression::Continue
+        });
         // SAFETY: the domain is private to its owner, whose nodes and processes are gone by now
         // (the owner keeps this value alive longest).
         let _ = unsafe {

@@ -389,3 +389,23 @@ pub struct PlanCell {
     /// Planning cost, 0–255 for 0–1: free 0, passable small, solid and glass 255.
     pub cost: u8,
 }
+
+/// Topic of the navigation goal: [`Goal`].
+pub const GOAL: &str = "mimnav/goal";
+
+/// A goal in the odometry frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/Goal/v1")]
+pub struct Goal {
+    /// Goal sequence number (a new goal replaces the old one).
+    pub seq: u64,
+    /// `CLOCK_MONOTONIC` when it was sent, ns.
+    pub stamp_mono_ns: u64,
+    /// Position, m, odometry frame.
+    pub x: f64,
+    /// Position, m, odometry frame.
+    pub y: f64,
+    /// Reached within this distance, m.
+    pub tolerance_m: f64,
+}

@@ -1,6 +1,7 @@
 //! `mimnav`: the command-line front end. It starts the services as separate processes and shows
 //! what they publish; it never runs an algorithm itself.
 
+mod goal;
 mod procs;
 mod replay;
 mod score_map;
@@ -41,6 +42,8 @@ enum Command {
     ScoreMap(score_map::ScoreMapArgs),
     /// Write the next map the mapper publishes as a PNG, in the paper's colours.
     Snapshot(snapshot::SnapshotArgs),
+    /// Send a navigation goal (odometry frame) to the running planner.
+    Goal(goal::GoalArgs),
     /// Check the config file and print the settings in force.
     CheckConfig,
 }
@@ -71,6 +74,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
         Command::Snapshot(args) => snapshot::run(&config, args),
+        Command::Goal(args) => goal::run(&config, args),
         Command::CheckConfig => {
             println!(
                 "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",

@@ -1,0 +1,292 @@
+//! `mimnav-planner`: the planner service.
+//!
+//! Wiring only: every map on `map/plan` is inflated towards the goal and searched with the
+//! dynamic window, with the latest `odom` and `goal`; the result goes out on `cmd_vel`, valid for
+//! `robot.command_validity_s`. Fail safe: without a goal, with stale odometry, with no map for
+//! `planner.map_max_age_s`, or with no feasible motion, the command is zero velocity and its
+//! status says why — also between maps, every 100 ms, so a silent mapper stops the robot.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use clap::Parser;
+use iceoryx2::prelude::*;
+use mimnav_planner::dwa::{DwaOutcome, DwaParams, clearance, plan};
+use mimnav_planner::inflate::{Inflation, KernelCache, plan_cost};
+use mimnav_shared::cli::ServiceArgs;
+use mimnav_shared::config::{Config, InflationConfig};
+use mimnav_shared::faults::Faults;
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::topics::{Goal, Odometry, VelocityCommand, command_status};
+
+/// The planner: map/plan + odom + goal → cmd_vel.
+#[derive(Debug, Parser)]
+#[command(name = "mimnav-planner", version)]
+struct Args {
+    #[command(flatten)]
+    service: ServiceArgs,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let config = match args.service.load(&[]) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("mimnav-planner: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    mimnav_shared::logging::init(&config.log.level);
+    match run(&config) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{e:#}");
+            eprintln!("mimnav-planner: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn dwa_params(config: &Config) -> DwaParams {
+    let (p, r) = (&config.planner, &config.robot);
+    DwaParams {
+        max_v: r.max_linear_mps,
+        max_omega: r.max_angular_rps,
+        max_accel: r.max_linear_accel,
+        max_alpha: r.max_angular_accel,
+        radius_m: r.radius_m,
+        window_s: p.window_s,
+        dt_s: p.dt_s,
+        horizon_s: p.horizon_s,
+        v_samples: p.v_samples,
+        omega_samples: p.omega_samples,
+        goal_weight: p.goal_weight,
+        speed_weight: p.speed_weight,
+        obstacle_weight: p.obstacle_weight,
+    }
+}
+
+/// Publishes commands, numbering them and logging when their status changes.
+struct Commander {
+    publisher: ipc::ValuePublisher<VelocityCommand>,
+    seq: u64,
+    last_status: u8,
+    validity_ns: u64,
+}
+
+impl Commander {
+    #[allow(clippy::too_many_arguments)]
+    fn send(
+        &mut self,
+        v: f64,
+        omega: f64,
+        status: u8,
+        source_stamp_ns: u64,
+        source_seq: u64,
+        now: u64,
+        faults: &mut Faults,
+    ) {
+        let cmd = VelocityCommand {
+            seq: self.seq,
+            stamp_mono_ns: now,
+            source_stamp_ns,
+            source_seq,
+            valid_until_mono_ns: now + self.validity_ns,
+            v: v as f32,
+            omega: omega as f32,
+            status,
+            reserved: [0; 7],
+        };
+        self.seq += 1;
+        if let Err(e) = self.publisher.publish(cmd) {
+            faults.record("publish_failed", Instant::now(), e);
+        }
+        if status != self.last_status {
+            tracing::info!(status, v, omega, "command status changed");
+            self.last_status = status;
+        }
+    }
+}
+
+fn run(config: &Config) -> Result<()> {
+    let node = ipc::node(config, "planner")?;
+    let plan_sub = ipc::plan_subscriber(&node)?;
+    let odom_sub = ipc::odom_subscriber(&node)?;
+    let goal_sub = ipc::goal_subscriber(&node)?;
+    let cmd_pub = ipc::cmd_vel_publisher(&node)?;
+    let p = &config.planner;
+    let params = dwa_params(config);
+    let inflation = match p.inflation {
+        InflationConfig::Adaptive => Inflation::Adaptive,
+        InflationConfig::Uniform => Inflation::Uniform,
+        InflationConfig::None => Inflation::None,
+    };
+    let passable_cost = (config.mapper.passable_cost * 255.0).round() as u8;
+    let mut kernels = KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles);
+    tracing::info!(inflation = ?p.inflation, "topics open: {}", mimnav_shared::topics::CMD_VEL);
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<Svc>()
+        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
+    let _plan_guard = waitset
+        .attach_notification(plan_sub.listener())
+        .map_err(|e| anyhow::anyhow!("cannot wait on map/plan: {e:?}"))?;
+    let _tick = waitset
+        .attach_interval(Duration::from_millis(100))
+        .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
+    let validity_ns = (config.robot.command_validity_s * 1e9) as u64;
+    let map_max_age_ns = (p.map_max_age_s * 1e9) as u64;
+    let odom_max_age_ns = (p.odom_max_age_s * 1e9) as u64;
+    let goal_max_age_ns = (p.goal_max_age_s * 1e9) as u64;
+    let mut faults = Faults::new(Duration::from_secs(5));
+    let (mut odom, mut goal): (Option<Odometry>, Option<Goal>) = (None, None);
+    let mut last_map_mono = 0u64;
+    let (mut cost, mut clear, mut classes) = (Vec::new(), Vec::new(), Vec::new());
+    let mut commander = Commander {
+        publisher: cmd_pub,
+        seq: 0,
+        last_status: u8::MAX,
+        validity_ns,
+    };
+    let result = waitset.wait_and_process(|_id| {
+        let now = ipc::monotonic_ns();
+        let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());
+        if let Ok(Some(o)) = odom_sub.latest() {
+            odom = Some(o);
+        }
+        match goal_sub.latest() {
+            Ok(Some(g)) => {
+                tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal");
+                goal = Some(g);
+            }
+            Ok(None) => {}
+            Err(e) => {
+                faults.record("receive_failed", Instant::now(), e);
+            }
+        }
+        let mut planned = false;
+        while let Ok(Some(sample)) = plan_sub.receive() {
+            let h = *sample.user_header();
+            last_map_mono = now;
+            classes.clear();
+            classes.extend(sample.payload().iter().map(|c| c.class));
+            drop(sample);
+            planned = true;
+            let grid = GridSpec {
+                cells: h.cells as usize,
+                cell_m: h.cell_m,
+            };
+            if goal_max_age_ns > 0
+                && goal.is_some_and(|g| now.saturating_sub(g.stamp_mono_ns) > goal_max_age_ns)
+            {
+                goal = None;
+            }
+            let Some(g) = goal else {
+                commander.send(
+                    0.0,
+                    0.0,
+                    command_status::NO_GOAL,
+                    h.stamp_ns,
+                    h.source_seq,
+                    now,
+                    &mut faults,
+                );
+                continue;
+            };
+            let Some(o) = odom.filter(|o| now.saturating_sub(o.rx_mono_ns) <= odom_max_age_ns)
+            else {
+                faults.record(
+                    "stale_odom",
+                    Instant::now(),
+                    "odometry is missing or stale: stopping",
+                );
+                commander.send(
+                    0.0,
+                    0.0,
+                    command_status::STALE_INPUT,
+                    h.stamp_ns,
+                    h.source_seq,
+                    now,
+                    &mut faults,
+                );
+                continue;
+            };
+            // the goal in the robot frame
+            let (s, c) = o.yaw.sin_cos();
+            let (dx, dy) = (g.x - o.x, g.y - o.y);
+            let (gx, gy) = (c * dx + s * dy, -s * dx + c * dy);
+            if gx.hypot(gy) <= g.tolerance_m.max(0.01) {
+                commander.send(
+                    0.0,
+                    0.0,
+                    command_status::GOAL_REACHED,
+                    h.stamp_ns,
+                    h.source_seq,
+                    now,
+                    &mut faults,
+                );
+                continue;
+            }
+            plan_cost(
+                &classes,
+                grid,
+                kernels.get(inflation, gy.atan2(gx)),
+                passable_cost,
+                &mut cost,
+            );
+            clearance(&classes, grid, 5.0, &mut clear);
+            match plan(
+                &params,
+                grid,
+                &cost,
+                &clear,
+                f64::from(o.v),
+                f64::from(o.omega),
+                (gx, gy),
+            ) {
+                DwaOutcome::Drive { v, omega, .. } => commander.send(
+                    v,
+                    omega,
+                    command_status::DRIVING,
+                    h.stamp_ns,
+                    h.source_seq,
+                    now,
+                    &mut faults,
+                ),
+                DwaOutcome::Blocked => commander.send(
+                    0.0,
+                    0.0,
+                    command_status::BLOCKED,
+                    h.stamp_ns,
+                    h.source_seq,
+                    now,
+                    &mut faults,
+                ),
+            }
+        }
+        if !planned && now.saturating_sub(last_map_mono) > map_max_age_ns {
+            // no map for too long: keep the robot stopped, and say why
+            commander.send(
+                0.0,
+                0.0,
+                command_status::STALE_INPUT,
+                0,
+                0,
+                now,
+                &mut faults,
+            );
+        }
+        CallbackProgression::Continue
+    });
+    match result {
+        Ok(r) => tracing::info!(
+            commands = commander.seq,
+            "stopping ({r:?}); faults: {}",
+            faults.summary()
+        ),
+        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
+    }
+    Ok(())
+}
