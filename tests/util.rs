@@ -92,7 +92,9 @@ impl Proc {
 impl Drop for Proc {
     /// SIGTERM first, so a service cleans up its shared memory; SIGKILL if it does not stop.
     fn drop(&mut self) {
-        if self.0.try_wait().ok().flatten().is_none() && self.terminate(Duration::from_secs(2)).is_none() {
+        if self.0.try_wait().ok().flatten().is_none()
+            && self.terminate(Duration::from_secs(2)).is_none()
+        {
             let _ = self.0.kill();
         }
         let _ = self.0.wait();
@@ -155,5 +157,14 @@ impl PointsTap {
             }
         }
         c
+    }
+}
+
+/// Removes a test's temporary file even when an assertion fails first.
+pub struct TempFile(pub PathBuf);
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
     }
 }

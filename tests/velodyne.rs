@@ -266,6 +266,7 @@ fn synthetic_capture(path: &Path, packets: u32) {
 fn a_broken_capture_ends_naming_file_and_offset() {
     let domain = PrivateDomain::new("e2e-broken");
     let path = std::env::temp_dir().join(format!("mimnav-e2e-broken-{}.pcap", std::process::id()));
+    let _cleanup = crate::util::TempFile(path.clone());
     synthetic_capture(&path, 400);
     let bytes = std::fs::read(&path).expect("read");
     // cut record 350 (24-byte file header, 16 + 1248 bytes a record) in half
@@ -328,6 +329,7 @@ fn a_missing_capture_is_named() {
 fn a_bad_config_names_file_and_key() {
     let domain = PrivateDomain::new("e2e-config");
     let path = std::env::temp_dir().join(format!("mimnav-e2e-config-{}.toml", std::process::id()));
+    let _cleanup = crate::util::TempFile(path.clone());
     std::fs::write(&path, "[velodyne]\nrpm = 600\nscan_lazer = 3\n").expect("write");
     let out = Command::new(bin("mimnav-velodyne"))
         .arg("--config")
