@@ -6,7 +6,7 @@ use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{cell_class, map_status};
 
-use crate::util::{Proc, bin, reference_counts, velodyne_data};
+use crate::util::{Proc, bin, free_udp_port, reference_counts, velodyne_data};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -92,14 +92,7 @@ fn the_mapper_maps_every_revolution_of_the_real_capture() {
 #[test]
 fn simulator_driver_and_mapper_put_a_wall_where_it_stands() {
     let domain = PrivateDomain::new("e2e-sim-map");
-    let free_port = || {
-        std::net::UdpSocket::bind("127.0.0.1:0")
-            .expect("bind")
-            .local_addr()
-            .expect("addr")
-            .port()
-    };
-    let (dp, pp) = (free_port(), free_port());
+    let (dp, pp) = (free_udp_port(), free_udp_port());
     let mut args = config_args(&domain);
     for s in [
         "velodyne.bind_address=\"127.0.0.1\"".to_string(),

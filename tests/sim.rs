@@ -5,15 +5,10 @@ use std::time::{Duration, Instant};
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{VelocityCommand, command_status};
 
-use crate::util::{PointsTap, Proc, bin};
+use crate::util::{PointsTap, Proc, bin, free_udp_port};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn free_udp_port() -> u16 {
-    let s = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
-    s.local_addr().expect("addr").port()
 }
 
 /// `--config` and `--set` arguments shared by the driver and the simulator of one test.

@@ -10,7 +10,7 @@ use mimnav_shared::topics::cut_reason;
 use mimnav_velodyne::capture::{CaptureReader, PcapDatagramWriter};
 use mimnav_velodyne::packet::{BLOCKS, CHANNELS, encode_data_packet};
 
-use crate::util::{PointsTap, Proc, bin, reference_counts, velodyne_data};
+use crate::util::{PointsTap, Proc, bin, free_udp_port, reference_counts, velodyne_data};
 
 fn shipped_config() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config/mimnav.toml")
@@ -131,11 +131,6 @@ fn a_looped_replay_starts_over_with_the_same_revolutions() {
         (0..n as u64).collect::<Vec<_>>(),
         "sequence numbers go on across passes"
     );
-}
-
-fn free_udp_port() -> u16 {
-    let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
-    s.local_addr().expect("addr").port()
 }
 
 #[test]

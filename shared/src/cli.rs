@@ -24,3 +24,34 @@ impl ServiceArgs {
         Config::resolve(self.config.as_deref(), &sets)
     }
 }
+
+impl ServiceArgs {
+    /// [`ServiceArgs::load`] for `service`'s `main`: a bad config is printed as
+    /// `service: file: what` and becomes exit status 2.
+    pub fn load_or_exit(
+        &self,
+        service: &str,
+        extra: &[String],
+    ) -> Result<Config, std::process::ExitCode> {
+        self.load(extra).map_err(|e| {
+            eprintln!("{service}: {e}");
+            std::process::ExitCode::from(2)
+        })
+    }
+}
+
+/// The exit status of a service's run: its own on success; on an error, the error chain is logged,
+/// printed as `service: …` and the status is 1 (so systemd's `Restart=on-failure` acts on it).
+pub fn finish<E: std::fmt::Display>(
+    service: &str,
+    result: Result<std::process::ExitCode, E>,
+) -> std::process::ExitCode {
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            tracing::error!("{e:#}");
+            eprintln!("{service}: {e:#}");
+            std::process::ExitCode::from(1)
+        }
+    }
+}

@@ -28,22 +28,12 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let config = match args.service.load(&[]) {
+    let config = match args.service.load_or_exit("mimnav-mapper", &[]) {
         Ok(c) => c,
-        Err(e) => {
-            eprintln!("mimnav-mapper: {e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     mimnav_shared::logging::init(&config.log.level);
-    match run(&config) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            tracing::error!("{e:#}");
-            eprintln!("mimnav-mapper: {e:#}");
-            ExitCode::from(1)
-        }
-    }
+    mimnav_shared::cli::finish("mimnav-mapper", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
 fn run(config: &Config) -> Result<()> {

@@ -31,22 +31,12 @@ struct Args {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let config = match args.service.load(&[]) {
+    let config = match args.service.load_or_exit("mimnav-planner", &[]) {
         Ok(c) => c,
-        Err(e) => {
-            eprintln!("mimnav-planner: {e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     mimnav_shared::logging::init(&config.log.level);
-    match run(&config) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            tracing::error!("{e:#}");
-            eprintln!("mimnav-planner: {e:#}");
-            ExitCode::from(1)
-        }
-    }
+    mimnav_shared::cli::finish("mimnav-planner", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
 fn dwa_params(config: &Config) -> DwaParams {

@@ -59,12 +59,9 @@ fn main() -> ExitCode {
     if let Some(s) = args.seed {
         set.push(format!("sim.seed={s}"));
     }
-    let config = match args.service.load(&set) {
+    let config = match args.service.load_or_exit("mimnav-sim", &set) {
         Ok(c) => c,
-        Err(e) => {
-            eprintln!("mimnav-sim: {e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     if let Some(s) = args.seconds
         && !(s > 0.0 && s <= 86_400.0)
@@ -88,14 +85,7 @@ fn main() -> ExitCode {
         Some(out) => write_capture(&config, &world, out, args.seconds.unwrap_or(1.0)),
         None => run_live(&config, &world, args.seconds, args.json),
     };
-    match result {
-        Ok(code) => code,
-        Err(e) => {
-            tracing::error!("{e:#}");
-            eprintln!("mimnav-sim: {e:#}");
-            ExitCode::from(1)
-        }
-    }
+    mimnav_shared::cli::finish("mimnav-sim", result)
 }
 
 fn write_capture(

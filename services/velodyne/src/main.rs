@@ -47,12 +47,9 @@ fn main() -> ExitCode {
             toml_quote(&p.display().to_string())
         ));
     }
-    let config = match args.service.load(&set) {
+    let config = match args.service.load_or_exit("mimnav-velodyne", &set) {
         Ok(c) => c,
-        Err(e) => {
-            eprintln!("mimnav-velodyne: {e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     if args.check_config {
         println!("{:#?}", config.velodyne);
@@ -62,14 +59,7 @@ fn main() -> ExitCode {
     if !config.from_file() {
         tracing::info!("no config file: running on the built-in defaults");
     }
-    match run(&config) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            tracing::error!("{e:#}");
-            eprintln!("mimnav-velodyne: {e:#}");
-            ExitCode::from(1)
-        }
-    }
+    mimnav_shared::cli::finish("mimnav-velodyne", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
 /// The driver's state between datagrams.
