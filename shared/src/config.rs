@@ -131,6 +131,13 @@ pub struct PlannerConfig {
     pub speed_weight: f64,
     /// Weight of the obstacle cost along a trajectory.
     pub obstacle_weight: f64,
+    /// Distance kept from solid and glass cells beyond the robot's radius, m.
+    pub margin_m: f64,
+    /// Coarse cell of the route search around obstacles, m (0: straight-line goal progress, as
+    /// in the paper).
+    pub route_cell_m: f64,
+    /// Extra route cost per unit of planning cost.
+    pub route_cost_weight: f64,
     /// A map older than this is stale: zero velocity, s.
     pub map_max_age_s: f64,
     /// Odometry older than this is stale: zero velocity, s.
@@ -154,6 +161,9 @@ impl Default for PlannerConfig {
             goal_weight: 5.0,
             speed_weight: 0.1,
             obstacle_weight: 1.0,
+            margin_m: 0.05,
+            route_cell_m: 0.25,
+            route_cost_weight: 1.0,
             map_max_age_s: 0.5,
             odom_max_age_s: 0.5,
             goal_max_age_s: 0.0,
@@ -193,6 +203,14 @@ impl PlannerConfig {
         r.check("planner.goal_weight", self.goal_weight, 0.0, 1000.0);
         r.check("planner.speed_weight", self.speed_weight, 0.0, 1000.0);
         r.check("planner.obstacle_weight", self.obstacle_weight, 0.0, 1000.0);
+        r.check("planner.margin_m", self.margin_m, 0.0, 2.0);
+        r.check("planner.route_cell_m", self.route_cell_m, 0.0, 2.0);
+        r.check(
+            "planner.route_cost_weight",
+            self.route_cost_weight,
+            0.0,
+            100.0,
+        );
         r.check("planner.map_max_age_s", self.map_max_age_s, 0.01, 60.0);
         r.check("planner.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check("planner.goal_max_age_s", self.goal_max_age_s, 0.0, 86400.0);

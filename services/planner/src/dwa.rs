@@ -11,6 +11,8 @@
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
+use crate::route::Route;
+
 /// Settings of the planner's search.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DwaParams {
@@ -24,6 +26,9 @@ pub struct DwaParams {
     pub max_alpha: f64,
     /// Footprint radius, m.
     pub radius_m: f64,
+    /// Distance kept from solid and glass cells beyond the footprint, m (at least about half a
+    /// cell: clearance is measured between cell centres).
+    pub margin_m: f64,
     /// Time the window's accelerations apply over (the control period), s.
     pub window_s: f64,
     /// Rollout step, s.
@@ -51,6 +56,7 @@ impl Default for DwaParams {
             max_accel: 0.6,
             max_alpha: 3.0,
             radius_m: 0.2,
+            margin_m: 0.05,
             window_s: 0.5,
             dt_s: 0.1,
             horizon_s: 3.5,
@@ -79,11 +85,65 @@ pub enum DwaOutcome {
     Blocked,
 }
 
-/// Distance from every cell to the nearest solid or glass cell, m (two-pass chamfer transform,
-/// capped at `cap_m`).
+/// Distance to the nearest solid or glass cell, m, over a square window of the map around the
+/// robot (two-pass chamfer transform, capped). Only the window the dynamic window's rollouts can
+/// reach is computed; obstacles beyond its edge do not count, so the window must reach past the
+/// rollouts by the distance that matters (the footprint and margin).
+#[derive(Debug, Clone, Default)]
+pub struct Clearance {
+    /// First row and column of the window.
+    lo: usize,
+    /// Side of the window, cells.
+    side: usize,
+    /// Map side, cells.
+    cells: usize,
+    data: Vec<f32>,
+}
+
+impl Clearance {
+    /// Computes the clearance of the cells within `half_m` of the map's centre (the robot),
+    /// capped at `cap_m`.
+    pub fn compute(&mut self, classes: &[u8], grid: GridSpec, half_m: f32, cap_m: f32) {
+        let n = grid.cells;
+        let half = ((half_m / grid.cell_m).ceil().max(1.0) as usize).min(n / 2);
+        let lo = n / 2 - half;
+        let side = (2 * half).min(n - lo);
+        self.lo = lo;
+        self.side = side;
+        self.cells = n;
+        self.data.clear();
+        if classes.len() < grid.len() || side == 0 {
+            self.side = 0;
+            return;
+        }
+        for r in lo..lo + side {
+            self.data
+                .extend(classes[r * n + lo..r * n + lo + side].iter().map(|&c| {
+                    if c == cell_class::SOLID || c == cell_class::GLASS {
+                        0.0
+                    } else {
+                        cap_m
+                    }
+                }));
+        }
+        chamfer(&mut self.data, side, grid.cell_m);
+    }
+
+    /// The clearance of map cell (r, c), m; 0 outside the window (never drive there).
+    #[inline]
+    pub fn at(&self, r: usize, c: usize) -> f32 {
+        let (r, c) = (r.wrapping_sub(self.lo), c.wrapping_sub(self.lo));
+        if r < self.side && c < self.side {
+            self.data[r * self.side + c]
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Distance from every cell to the nearest solid or glass cell over the whole map, m, capped at
+/// `cap_m` (row-major, as the map).
 pub fn clearance(classes: &[u8], grid: GridSpec, cap_m: f32, out: &mut Vec<f32>) {
-    let n = grid.cells;
-    let g = grid.cell_m;
     out.clear();
     out.extend(classes.iter().map(|&c| {
         if c == cell_class::SOLID || c == cell_class::GLASS {
@@ -92,70 +152,120 @@ pub fn clearance(classes: &[u8], grid: GridSpec, cap_m: f32, out: &mut Vec<f32>)
             cap_m
         }
     }));
+    if out.len() == grid.len() {
+        chamfer(out, grid.cells, grid.cell_m);
+    }
+}
+
+/// The two-pass chamfer distance transform of a `side` × `side` buffer holding 0 at obstacles
+/// and the cap elsewhere; `g` is the cell size.
+pub(crate) fn chamfer(out: &mut [f32], n: usize, g: f32) {
     let diag = g * std::f32::consts::SQRT_2;
-    for r in 0..n {
-        for c in 0..n {
-            let i = r * n + c;
-            let mut d = out[i];
-            if r > 0 {
-                d = d.min(out[i - n] + g);
-                if c > 0 {
-                    d = d.min(out[i - n - 1] + diag);
-                }
-                if c + 1 < n {
-                    d = d.min(out[i - n + 1] + diag);
-                }
-            }
-            if c > 0 {
-                d = d.min(out[i - 1] + g);
-            }
-            out[i] = d;
+    if n == 0 || out.len() < n * n {
+        return;
+    }
+    // Forward pass, row by row: first the three neighbours of the row above (independent of
+    // each other, so the compiler can vectorise), then the left neighbour, which runs along the
+    // row; the result is the same as the cell-by-cell pass. The backward pass mirrors it.
+    {
+        let first = &mut out[..n];
+        for c in 1..n {
+            first[c] = lesser(first[c], first[c - 1] + g);
         }
     }
-    for r in (0..n).rev() {
-        for c in (0..n).rev() {
-            let i = r * n + c;
-            let mut d = out[i];
-            if r + 1 < n {
-                d = d.min(out[i + n] + g);
-                if c + 1 < n {
-                    d = d.min(out[i + n + 1] + diag);
-                }
-                if c > 0 {
-                    d = d.min(out[i + n - 1] + diag);
-                }
-            }
-            if c + 1 < n {
-                d = d.min(out[i + 1] + g);
-            }
-            out[i] = d;
+    for r in 1..n {
+        let (above, rest) = out.split_at_mut(r * n);
+        let prev = &above[(r - 1) * n..];
+        let cur = &mut rest[..n];
+        rows_min(cur, prev, g, diag);
+        for c in 1..n {
+            cur[c] = lesser(cur[c], cur[c - 1] + g);
+        }
+    }
+    {
+        let last = &mut out[(n - 1) * n..];
+        for c in (0..n - 1).rev() {
+            last[c] = lesser(last[c], last[c + 1] + g);
+        }
+    }
+    for r in (0..n - 1).rev() {
+        let (head, below) = out.split_at_mut((r + 1) * n);
+        let next = &below[..n];
+        let cur = &mut head[r * n..];
+        rows_min(cur, next, g, diag);
+        for c in (0..n - 1).rev() {
+            cur[c] = lesser(cur[c], cur[c + 1] + g);
         }
     }
 }
 
+/// The smaller of `a` and `b`, as one `minss`/`minps` instruction (no NaN rules: there are no
+/// NaNs here), so the row loops vectorise.
+#[inline(always)]
+fn lesser(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
+/// `cur[c] = min(cur[c], other[c] + g, other[c ± 1] + diag)`: the neighbours in the row above or
+/// below.
+#[inline]
+fn rows_min(cur: &mut [f32], other: &[f32], g: f32, diag: f32) {
+    let n = cur.len().min(other.len());
+    if n == 1 {
+        cur[0] = lesser(cur[0], other[0] + g);
+        return;
+    }
+    cur[0] = lesser(lesser(cur[0], other[0] + g), other[1] + diag);
+    for ((c, w), o) in cur[1..n - 1]
+        .iter_mut()
+        .zip(other[..n - 2].iter().zip(&other[2..n]))
+        .zip(&other[1..n - 1])
+    {
+        *c = lesser(lesser(lesser(*c, o + g), w.0 + diag), w.1 + diag);
+    }
+    cur[n - 1] = lesser(lesser(cur[n - 1], other[n - 1] + g), other[n - 2] + diag);
+}
+
 /// Searches the dynamic window from the current velocity (v0, ω0) towards `goal` (robot frame,
-/// m) on the planning `cost` (0–255 per cell) with the footprint `clearance` (m per cell).
+/// m) on the planning `cost` (0–255 per cell) with the footprint clearance `clear`.
+///
+/// Goal progress is the distance still to go along `route` (see [`crate::route`]) where it knows
+/// one from the robot's place, and the straight-line distance otherwise (the paper's eq. 12).
+#[allow(clippy::too_many_arguments)]
 pub fn plan(
     p: &DwaParams,
     grid: GridSpec,
     cost: &[u8],
-    clear: &[f32],
+    clear: &Clearance,
     v0: f64,
     omega0: f64,
     goal: (f64, f64),
+    route: Option<&Route>,
 ) -> DwaOutcome {
+    let route = route.filter(|r| r.value(0.0, 0.0).is_finite());
+    let to_go = |x: f64, y: f64| match route {
+        Some(r) => f64::from(r.value(x as f32, y as f32)),
+        None => (goal.0 - x).hypot(goal.1 - y),
+    };
     let v_lo = (v0 - p.max_accel * p.window_s).max(0.0);
     let v_hi = (v0 + p.max_accel * p.window_s).min(p.max_v);
     let w_lo = (omega0 - p.max_alpha * p.window_s).max(-p.max_omega);
     let w_hi = (omega0 + p.max_alpha * p.window_s).min(p.max_omega);
     let steps = (p.horizon_s / p.dt_s).ceil().max(1.0) as usize;
-    let goal_dist = goal.0.hypot(goal.1).max(1e-6);
-    // already touching: every motion starts in collision
-    if let Some((r, c)) = grid.cell_of(0.0, 0.0)
-        && f64::from(clear[grid.index(r, c)]) < p.radius_m
-    {
+    let start_to_go = to_go(0.0, 0.0);
+    // Closer than the footprint and margin already (a late detection, or a cell misjudged
+    // solid): motions that get no closer still are allowed, so the robot can back out instead
+    // of freezing; a robot inside an obstacle cell can only be blocked.
+    let Some(start_clear) = grid
+        .cell_of(0.0, 0.0)
+        .map(|(r, c)| f64::from(clear.at(r, c)))
+    else {
+        return DwaOutcome::Blocked;
+    };
+    if start_clear <= 0.0 {
         return DwaOutcome::Blocked;
     }
+    let required = (p.radius_m + p.margin_m).min(start_clear);
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
         if n <= 1 {
@@ -168,25 +278,36 @@ pub fn plan(
         let v = sample(v_lo, v_hi, kv, p.v_samples);
         for kw in 0..p.omega_samples.max(1) {
             let w = sample(w_lo, w_hi, kw, p.omega_samples);
-            let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
+            // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling
+            // sin and cos each step
+            let (turn_s, turn_c) = (w * p.dt_s).sin_cos();
+            let (mut x, mut y) = (0.0f64, 0.0f64);
+            let (mut hc, mut hs) = (1.0f64, 0.0f64);
             let mut obstacle = 0.0;
             let mut feasible = true;
-            let mut closest = goal_dist;
-            for _ in 0..steps {
-                th += w * p.dt_s;
-                x += v * th.cos() * p.dt_s;
-                y += v * th.sin() * p.dt_s;
+            let mut closest = start_to_go;
+            for k in 0..steps {
+                (hc, hs) = (hc * turn_c - hs * turn_s, hs * turn_c + hc * turn_s);
+                x += v * hc * p.dt_s;
+                y += v * hs * p.dt_s;
                 let Some((r, c)) = grid.cell_of(x as f32, y as f32) else {
+                    closest = closest.min(to_go(x, y));
                     break;
                 };
                 let i = grid.index(r, c);
-                if f64::from(clear[i]) < p.radius_m {
+                if f64::from(clear.at(r, c)) < required {
                     feasible = false;
                     break;
                 }
                 obstacle += f64::from(cost[i]) / 255.0;
-                closest = closest.min((goal.0 - x).hypot(goal.1 - y));
-                if closest < 0.05 {
+                // progress every other step and at the end (the route is smooth; this halves
+                // the planner's largest cost)
+                if k % 2 == 1 || k + 1 == steps {
+                    closest = closest.min(to_go(x, y));
+                }
+                let (gx, gy) = (goal.0 - x, goal.1 - y);
+                if gx * gx + gy * gy < 0.05 * 0.05 {
+                    closest = closest.min(to_go(x, y));
                     break;
                 }
             }
@@ -226,13 +347,26 @@ mod tests {
     }
 
     fn run(classes: &[u8], grid: GridSpec, v0: f64, goal: (f64, f64)) -> DwaOutcome {
-        let mut clear = Vec::new();
-        clearance(classes, grid, 5.0, &mut clear);
+        let mut clear = Clearance::default();
+        clear.compute(classes, grid, 3.0, 5.0);
         let cost: Vec<u8> = classes
             .iter()
             .map(|&c| if c == cell_class::SOLID { 255 } else { 0 })
             .collect();
-        plan(&DwaParams::default(), grid, &cost, &clear, v0, 0.0, goal)
+        let p = DwaParams::default();
+        let mut route = Route::default();
+        route.build(
+            &crate::route::RouteParams {
+                cell_m: 0.2,
+                radius_m: (p.radius_m + p.margin_m) as f32,
+                cost_weight: 1.0,
+            },
+            grid,
+            classes,
+            &cost,
+            (goal.0 as f32, goal.1 as f32),
+        );
+        plan(&p, grid, &cost, &clear, v0, 0.0, goal, Some(&route))
     }
 
     #[test]
@@ -252,6 +386,72 @@ mod tests {
         };
         assert!((at(0.5, 0.0) - 0.5).abs() < 0.06, "{}", at(0.5, 0.0));
         assert_eq!(at(1.01, 0.0), 0.0);
+    }
+
+    #[test]
+    fn the_window_agrees_with_the_whole_map_inside_and_is_zero_outside() {
+        let (grid, classes) = map(|x, y| {
+            if (x - 1.0).abs() < 0.03 || (y + 2.0).abs() < 0.03 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut full = Vec::new();
+        clearance(&classes, grid, 5.0, &mut full);
+        let mut window = Clearance::default();
+        window.compute(&classes, grid, 1.5, 5.0);
+        for r in 0..grid.cells {
+            for c in 0..grid.cells {
+                let (x, y) = grid.center_of(r, c);
+                let w = window.at(r, c);
+                if x.abs() < 1.45 && y.abs() < 1.45 {
+                    // obstacles beyond the window are not seen: equal up to what reaches in
+                    let f = full[grid.index(r, c)];
+                    assert!(
+                        w >= f - 1e-5 && (f > 0.4 || (w - f).abs() < 1e-5),
+                        "{r},{c}: {w} {f}"
+                    );
+                } else if x.abs() > 1.55 || y.abs() > 1.55 {
+                    assert_eq!(w, 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn clearance_is_within_the_chamfer_bound_of_the_true_distance() {
+        // scattered obstacle cells from a fixed LCG; brute force against the transform
+        let grid = GridSpec {
+            cells: 60,
+            cell_m: 0.05,
+        };
+        let mut state = 12345u64;
+        let mut classes = vec![cell_class::FREE; grid.len()];
+        for _ in 0..25 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            classes[(state >> 33) as usize % grid.len()] = cell_class::SOLID;
+        }
+        classes[grid.index(0, 59)] = cell_class::GLASS;
+        let mut clear = Vec::new();
+        clearance(&classes, grid, 5.0, &mut clear);
+        let obstacles: Vec<(f32, f32)> = (0..grid.len())
+            .filter(|&i| classes[i] != cell_class::FREE)
+            .map(|i| grid.center_of(i / grid.cells, i % grid.cells))
+            .collect();
+        for (i, &got) in clear.iter().enumerate() {
+            let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+            let truth = obstacles
+                .iter()
+                .map(|&(ox, oy)| (x - ox).hypot(y - oy))
+                .fold(f32::INFINITY, f32::min);
+            assert!(
+                got >= truth - 1e-4 && got <= truth * 1.09 + 1e-4,
+                "cell {i}: {got} against {truth}"
+            );
+        }
     }
 
     #[test]
@@ -286,7 +486,7 @@ mod tests {
             }
         });
         match run(&classes, grid, 0.2, (3.0, 0.0)) {
-            DwaOutcome::Drive { omega, .. } => assert!(omega > 0.2, "swerves left: {omega}"),
+            o @ DwaOutcome::Drive { omega, .. } => assert!(omega > 0.2, "swerves left: {o:?}"),
             o => panic!("{o:?}"),
         }
     }
@@ -306,7 +506,21 @@ mod tests {
     }
 
     #[test]
-    fn touching_already_is_blocked() {
+    fn inside_an_obstacle_is_blocked() {
+        let (grid, classes) = map(|x, _| {
+            if x.abs() < 0.03 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(run(&classes, grid, 0.0, (-3.0, 0.0)), DwaOutcome::Blocked);
+    }
+
+    #[test]
+    fn too_close_already_backs_off_without_getting_closer() {
+        // a wall 0.1 m ahead (inside the 0.2 m footprint), the goal straight through it: the
+        // robot may only turn or move away, never closer
         let (grid, classes) = map(|x, _| {
             if (x - 0.1).abs() < 0.03 {
                 cell_class::SOLID
@@ -314,6 +528,24 @@ mod tests {
                 cell_class::FREE
             }
         });
-        assert_eq!(run(&classes, grid, 0.0, (-3.0, 0.0)), DwaOutcome::Blocked);
+        match run(&classes, grid, 0.0, (3.0, 0.0)) {
+            DwaOutcome::Drive { v, omega, .. } => {
+                assert!(v < 0.05 || omega.abs() > 0.5, "{v} {omega}")
+            }
+            DwaOutcome::Blocked => {}
+        }
+        // whatever it chose, its trajectory kept its distance: check the straight one is refused
+        let mut clear = Clearance::default();
+        clear.compute(&classes, grid, 3.0, 5.0);
+        let cost = vec![0u8; grid.len()];
+        let straight = DwaParams {
+            omega_samples: 1,
+            max_omega: 0.0,
+            ..DwaParams::default()
+        };
+        match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
+            DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
+            DwaOutcome::Blocked => {}
+        }
     }
 }

@@ -12,10 +12,10 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use clap::Parser;
 use iceoryx2::prelude::*;
-use mimnav_planner::dwa::{DwaOutcome, DwaParams, clearance, plan};
-use mimnav_planner::inflate::{Inflation, KernelCache, plan_cost};
+use mimnav_planner::dwa::DwaOutcome;
+use mimnav_planner::{Planner, PlannerParams};
 use mimnav_shared::cli::ServiceArgs;
-use mimnav_shared::config::{Config, InflationConfig};
+use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening, Svc};
@@ -39,25 +39,6 @@ fn main() -> ExitCode {
     mimnav_shared::cli::finish("mimnav-planner", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
-fn dwa_params(config: &Config) -> DwaParams {
-    let (p, r) = (&config.planner, &config.robot);
-    DwaParams {
-        max_v: r.max_linear_mps,
-        max_omega: r.max_angular_rps,
-        max_accel: r.max_linear_accel,
-        max_alpha: r.max_angular_accel,
-        radius_m: r.radius_m,
-        window_s: p.window_s,
-        dt_s: p.dt_s,
-        horizon_s: p.horizon_s,
-        v_samples: p.v_samples,
-        omega_samples: p.omega_samples,
-        goal_weight: p.goal_weight,
-        speed_weight: p.speed_weight,
-        obstacle_weight: p.obstacle_weight,
-    }
-}
-
 /// Publishes commands, numbering them and logging when their status changes.
 struct Commander {
     publisher: ipc::ValuePublisher<VelocityCommand>,
@@ -78,6 +59,8 @@ impl Commander {
         now: u64,
         faults: &mut Faults,
     ) {
+        // stamped when it leaves, so the stack's latency includes the planning
+        let now = ipc::monotonic_ns().max(now);
         let cmd = VelocityCommand {
             seq: self.seq,
             stamp_mono_ns: now,
@@ -107,14 +90,7 @@ fn run(config: &Config) -> Result<()> {
     let goal_sub = ipc::goal_subscriber(&node)?;
     let cmd_pub = ipc::cmd_vel_publisher(&node)?;
     let p = &config.planner;
-    let params = dwa_params(config);
-    let inflation = match p.inflation {
-        InflationConfig::Adaptive => Inflation::Adaptive,
-        InflationConfig::Uniform => Inflation::Uniform,
-        InflationConfig::None => Inflation::None,
-    };
-    let passable_cost = (config.mapper.passable_cost * 255.0).round() as u8;
-    let mut kernels = KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles);
+    let mut planner = Planner::new(PlannerParams::from_config(config));
     tracing::info!(inflation = ?p.inflation, "topics open: {}", mimnav_shared::topics::CMD_VEL);
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
@@ -133,7 +109,7 @@ fn run(config: &Config) -> Result<()> {
     let mut faults = Faults::new(Duration::from_secs(5));
     let (mut odom, mut goal): (Option<Odometry>, Option<Goal>) = (None, None);
     let mut last_map_mono = 0u64;
-    let (mut cost, mut clear, mut classes) = (Vec::new(), Vec::new(), Vec::new());
+    let mut classes = Vec::new();
     let mut commander = Commander {
         publisher: cmd_pub,
         seq: 0,
@@ -219,23 +195,7 @@ fn run(config: &Config) -> Result<()> {
                 );
                 continue;
             }
-            plan_cost(
-                &classes,
-                grid,
-                kernels.get(inflation, gy.atan2(gx)),
-                passable_cost,
-                &mut cost,
-            );
-            clearance(&classes, grid, 5.0, &mut clear);
-            match plan(
-                &params,
-                grid,
-                &cost,
-                &clear,
-                f64::from(o.v),
-                f64::from(o.omega),
-                (gx, gy),
-            ) {
+            match planner.plan(&classes, grid, f64::from(o.v), f64::from(o.omega), (gx, gy)) {
                 DwaOutcome::Drive { v, omega, .. } => commander.send(
                     v,
                     omega,

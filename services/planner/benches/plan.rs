@@ -1,0 +1,194 @@
+//! Planner time per map (inflation, clearance, route and the dynamic window), one core, on the
+//! intensity maps of simulated revolutions: scenario 1 (walls and glass) and scenario 4 (grass,
+//! bushes and trees), driven along their survey routes.
+//!
+//! `cargo bench -p mimnav-planner --bench plan`
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use mimnav_mapper::glass::Pose2;
+use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
+use mimnav_planner::inflate::Inflation;
+use mimnav_planner::{Planner, PlannerParams};
+use mimnav_shared::config::Config;
+use mimnav_sim::motion::WaypointDriver;
+use mimnav_sim::world::WorldFile;
+use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
+use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
+
+/// A map with the robot's speed, turn rate and goal (robot frame).
+type Case = (Vec<u8>, f64, f64, (f64, f64));
+
+/// The maps of every fifth revolution along `world`'s survey, with the robot's state and goal.
+fn maps(config: &Config, world: &str) -> Vec<Case> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../config/worlds")
+        .join(world);
+    let scene = match WorldFile::load(&path) {
+        Ok(w) => w.compile(),
+        Err(e) => {
+            eprintln!("cannot load {}: {e}", path.display());
+            std::process::exit(1);
+        }
+    };
+    let goal = scene.goal;
+    let mut driver = WaypointDriver::new(scene.survey.clone(), 0.25);
+    let mut sim = Sim::new(scene, SimSettings::from_config(config), 1, DEFAULT_EPOCH_NS);
+    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
+    let mut mapper = Mapper::new(MapperParams::from_config(config));
+    let limits = sim.settings().limits;
+    let mut out = Vec::new();
+    let mut k = 0;
+    while sim.outcome() == Outcome::Running && !driver.done() {
+        let step = sim.step();
+        let Ok(Some(rev)) = asm.push(&step.data, step.first_firing_ns, 0) else {
+            continue;
+        };
+        let b = *sim.base();
+        mapper.update(
+            &rev.points,
+            OdomInput::Fresh(Odom {
+                pose: Pose2 {
+                    x: b.pose.x,
+                    y: b.pose.y,
+                    yaw: b.pose.yaw,
+                },
+                v: b.v,
+                omega: b.omega,
+            }),
+            rev.header.stamp_ns,
+        );
+        k += 1;
+        if k % 5 == 0 {
+            let (s, c) = b.pose.yaw.sin_cos();
+            let (dx, dy) = (goal[0] - b.pose.x, goal[1] - b.pose.y);
+            out.push((
+                mapper.classes().to_vec(),
+                b.v,
+                b.omega,
+                (c * dx + s * dy, -s * dx + c * dy),
+            ));
+        }
+        let (v, w) = driver.command(b.pose, &limits);
+        sim.set_command(v, w);
+    }
+    out
+}
+
+fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
+    let mut params = PlannerParams::from_config(config);
+    params.inflation = inflation;
+    let mut planner = Planner::new(params);
+    let grid = config.map.grid();
+    let mut times = Vec::new();
+    let start = Instant::now();
+    while start.elapsed().as_secs_f64() < 3.0 {
+        for (classes, v, w, goal) in maps {
+            let t = Instant::now();
+            std::hint::black_box(planner.plan(classes, grid, *v, *w, *goal));
+            times.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    let mean = times.iter().sum::<f64>() / times.len() as f64;
+    let p99 = times[(times.len() * 99 / 100).min(times.len() - 1)];
+    println!(
+        "{name}, {inflation:?} inflation: mean {mean:.0} µs, median {:.0} µs, p99 {p99:.0} µs per map ({} maps of {} cells, {} samples × {} steps)",
+        times[times.len() / 2],
+        times.len(),
+        grid.len(),
+        params.dwa.v_samples * params.dwa.omega_samples,
+        (params.dwa.horizon_s / params.dwa.dt_s).ceil()
+    );
+}
+
+/// Where the time goes: each stage alone, mean µs per map.
+fn breakdown(config: &Config, maps: &[Case]) {
+    use mimnav_planner::dwa;
+    use mimnav_planner::inflate::{KernelCache, plan_cost};
+    use mimnav_planner::route::{Route, RouteParams};
+    let params = PlannerParams::from_config(config);
+    let grid = config.map.grid();
+    let mut kernels = KernelCache::new(
+        params.kernel_cells,
+        params.padding_cells,
+        params.kernel_angles,
+    );
+    let (mut cost, mut clear, mut route) =
+        (Vec::new(), dwa::Clearance::default(), Route::default());
+    let reach = (params.dwa.max_v * params.dwa.horizon_s
+        + params.dwa.radius_m
+        + params.dwa.margin_m) as f32
+        + 2.0 * grid.cell_m;
+    let mut t = [0.0f64; 4];
+    let mut n = 0;
+    for (classes, v, w, goal) in maps.iter().cycle().take(maps.len() * 20) {
+        let s = Instant::now();
+        plan_cost(
+            classes,
+            grid,
+            kernels.get(params.inflation, goal.1.atan2(goal.0)),
+            params.passable_cost,
+            &mut cost,
+        );
+        t[0] += s.elapsed().as_secs_f64();
+        let s = Instant::now();
+        clear.compute(classes, grid, reach, 5.0);
+        t[1] += s.elapsed().as_secs_f64();
+        let s = Instant::now();
+        route.build(
+            &RouteParams {
+                cell_m: params.route_cell_m,
+                radius_m: (params.dwa.radius_m + params.dwa.margin_m) as f32,
+                cost_weight: params.route_cost_weight,
+            },
+            grid,
+            classes,
+            &cost,
+            (goal.0 as f32, goal.1 as f32),
+        );
+        t[2] += s.elapsed().as_secs_f64();
+        let s = Instant::now();
+        std::hint::black_box(dwa::plan(
+            &params.dwa,
+            grid,
+            &cost,
+            &clear,
+            *v,
+            *w,
+            *goal,
+            Some(&route),
+        ));
+        t[3] += s.elapsed().as_secs_f64();
+        n += 1;
+    }
+    let us = |x: f64| x * 1e6 / n as f64;
+    println!(
+        "  stages: inflation {:.0} µs, clearance {:.0} µs, route {:.0} µs, dynamic window {:.0} µs",
+        us(t[0]),
+        us(t[1]),
+        us(t[2]),
+        us(t[3])
+    );
+}
+
+fn main() {
+    let mut config = Config::default();
+    if let Some(v) = std::env::var("ROUTE_CELL")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        config.planner.route_cell_m = v;
+    }
+    for world in [
+        "scenario1_glass_wall.toml",
+        "scenario4_grass_intertwined.toml",
+    ] {
+        let maps = maps(&config, world);
+        for inflation in [Inflation::Adaptive, Inflation::Uniform] {
+            time(world, &config, inflation, &maps);
+        }
+        breakdown(&config, &maps);
+    }
+}

@@ -1,0 +1,443 @@
+//! A navigation function on the local map: the length of the shortest route from every place to
+//! the goal, around the obstacles. Beyond the paper.
+//!
+//! The paper's DWA (eq. 12) scores goal progress by the straight-line distance, so a wall or a
+//! glass pane across the way is a local minimum the robot cannot leave: every trajectory that
+//! turns away from it makes "progress" worse. Scoring progress along this route instead (the
+//! classic global dynamic window of Brock and Khatib) keeps the dynamic window and its footprint
+//! test for safety and lets the robot drive around.
+//!
+//! The route is a Dijkstra search on a coarse grid (`cell_m`, a few map cells) over 16
+//! neighbours (straight, diagonal and knight moves, so route lengths are within 3 % of the
+//! Euclidean ones and the DWA has no reason to zig-zag). A coarse cell can be crossed when it
+//! holds no solid or glass map cell and its centre is within half a coarse cell of the clearance
+//! the footprint needs (a chamfer transform on the coarse grid) — an optimistic test, so a door
+//! the footprint fits through is never closed here; the DWA's footprint test stays the safety
+//! check. Moves do not cut corners of cells that cannot be crossed. Each move costs its length
+//! times 1 + `cost_weight` · (planning cost / 255) of the cell it enters (the cheapest map cell
+//! of it), so the route keeps to free cells and prefers short ways around grass. A goal outside the map is reached through the map's border: border
+//! cells start with their straight-line distance to the goal (the world beyond the map is not
+//! known, so it is assumed open).
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::topics::cell_class;
+
+use crate::dwa::chamfer;
+
+/// (Δrow, Δcol) of the 16 moves.
+const MOVES: [(i32, i32); 16] = [
+    (1, 0),
+    (-1, 0),
+    (0, 1),
+    (0, -1),
+    (1, 1),
+    (1, -1),
+    (-1, 1),
+    (-1, -1),
+    (2, 1),
+    (2, -1),
+    (-2, 1),
+    (-2, -1),
+    (1, 2),
+    (1, -2),
+    (-1, 2),
+    (-1, -2),
+];
+
+/// The navigation function of one map.
+#[derive(Debug, Clone)]
+pub struct Route {
+    /// The coarse grid.
+    coarse: GridSpec,
+    /// Map cells per coarse cell, per side.
+    factor: usize,
+    /// Whether each coarse cell can be crossed.
+    open: Vec<bool>,
+    /// The cheapest planning cost (0–255) of each coarse cell's map cells.
+    weight: Vec<u8>,
+    /// Coarse clearance, m.
+    clear: Vec<f32>,
+    /// `open` with a closed border two cells wide.
+    padded: Vec<bool>,
+    /// Route length to the goal from each coarse cell's centre, m (infinite: no route).
+    dist: Vec<f32>,
+    heap: BinaryHeap<Reverse<(u32, u32)>>,
+}
+
+impl Default for Route {
+    fn default() -> Self {
+        Route {
+            coarse: GridSpec {
+                cells: 0,
+                cell_m: 1.0,
+            },
+            factor: 1,
+            open: Vec::new(),
+            weight: Vec::new(),
+            clear: Vec::new(),
+            padded: Vec::new(),
+            dist: Vec::new(),
+            heap: BinaryHeap::new(),
+        }
+    }
+}
+
+/// Settings of the route search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteParams {
+    /// Coarse cell size, m (rounded to a whole number of map cells).
+    pub cell_m: f32,
+    /// The footprint radius, m.
+    pub radius_m: f32,
+    /// Extra cost per unit of planning cost (0–1) of the cells a route enters.
+    pub cost_weight: f32,
+}
+
+impl Route {
+    /// Computes the route lengths to `goal` (robot frame, m) on a map of cell `classes` with
+    /// planning cost `cost` (0–255 per map cell).
+    pub fn build(
+        &mut self,
+        p: &RouteParams,
+        grid: GridSpec,
+        classes: &[u8],
+        cost: &[u8],
+        goal: (f32, f32),
+    ) {
+        let factor = ((p.cell_m / grid.cell_m).round() as usize).clamp(1, grid.cells.max(1));
+        let cells = grid.cells.div_ceil(factor);
+        self.factor = factor;
+        self.coarse = GridSpec {
+            cells,
+            cell_m: grid.cell_m * factor as f32,
+        };
+        let m = cells * cells;
+        self.open.clear();
+        self.open.resize(m, false);
+        self.weight.clear();
+        self.weight.resize(m, u8::MAX);
+        self.dist.clear();
+        self.dist.resize(m, f32::INFINITY);
+        self.heap.clear();
+        let n = grid.cells;
+        if classes.len() < grid.len() || cost.len() < grid.len() {
+            return;
+        }
+        // coarse obstacles (any solid or glass map cell) and the cheapest cost of each coarse
+        // cell; `weight` holds the cost for now
+        let mut obstacle = std::mem::take(&mut self.clear);
+        obstacle.clear();
+        obstacle.resize(m, self.coarse.cell_m * cells as f32);
+        for r in 0..n {
+            let row = (r / factor) * cells;
+            let (class_row, cost_row) = (&classes[r * n..(r + 1) * n], &cost[r * n..(r + 1) * n]);
+            for (kc, (cl, co)) in class_row
+                .chunks(factor)
+                .zip(cost_row.chunks(factor))
+                .enumerate()
+            {
+                let k = row + kc;
+                if cl
+                    .iter()
+                    .any(|&c| c == cell_class::SOLID || c == cell_class::GLASS)
+                {
+                    obstacle[k] = 0.0;
+                }
+                let cheapest = co.iter().copied().min().unwrap_or(u8::MAX);
+                self.weight[k] = self.weight[k].min(cheapest);
+            }
+        }
+        chamfer(&mut obstacle, cells, self.coarse.cell_m);
+        // Optimistic: a coarse cell can be crossed when it holds no obstacle and its centre is
+        // within half a coarse cell of the clearance the footprint needs, so every door the
+        // footprint fits through stays open here; the DWA's footprint test stays the safety
+        // check.
+        let need = p.radius_m - 0.5 * self.coarse.cell_m;
+        for (open, &d) in self.open.iter_mut().zip(&obstacle) {
+            *open = d > 0.0 && d >= need;
+        }
+        self.clear = obstacle;
+        let scale = p.cost_weight / 255.0;
+        // the goal's own cell, or the border when the goal lies outside the map
+        let cs = self.coarse;
+        let h = cs.half_extent_m();
+        if goal.0.abs() < h && goal.1.abs() < h {
+            // the goal's cell and its neighbours, so values near the goal interpolate exactly
+            if let Some((r, c)) = cs.cell_of(goal.0, goal.1) {
+                for rr in r.saturating_sub(1)..(r + 2).min(cells) {
+                    for cc in c.saturating_sub(1)..(c + 2).min(cells) {
+                        let (x, y) = cs.center_of(rr, cc);
+                        self.seed(rr * cells + cc, (goal.0 - x).hypot(goal.1 - y));
+                    }
+                }
+            }
+        } else {
+            for k in 0..cells {
+                for (r, c) in [(0, k), (cells - 1, k), (k, 0), (k, cells - 1)] {
+                    let (x, y) = cs.center_of(r, c);
+                    self.seed(r * cells + c, (goal.0 - x).hypot(goal.1 - y));
+                }
+            }
+        }
+        let len = |dr: i32, dc: i32| f64::from(dr * dr + dc * dc).sqrt() as f32 * cs.cell_m;
+        let lengths: [f32; 16] = std::array::from_fn(|j| len(MOVES[j].0, MOVES[j].1));
+        // The open cells in a grid padded by two closed cells on every side, so a move needs no
+        // bounds check: (padded offset of the target, of the two cells it passes beside — the
+        // target again for straight moves —, unpadded offset, length).
+        let w = cells + 4;
+        self.padded.clear();
+        self.padded.resize(w * w, false);
+        for r in 0..cells {
+            self.padded[(r + 2) * w + 2..(r + 2) * w + 2 + cells]
+                .copy_from_slice(&self.open[r * cells..(r + 1) * cells]);
+        }
+        let (wi, ci) = (w as isize, cells as isize);
+        let moves: [(isize, isize, isize, isize, f32); 16] = std::array::from_fn(|j| {
+            let (dr, dc) = (MOVES[j].0 as isize, MOVES[j].1 as isize);
+            let (b1, b2) = match (dr.abs(), dc.abs()) {
+                (1, 1) => (dr * wi, dc),
+                (2, 1) => ((dr / 2) * wi, (dr / 2) * wi + dc),
+                (1, 2) => (dc / 2, dr * wi + dc / 2),
+                _ => (dr * wi + dc, dr * wi + dc),
+            };
+            (dr * wi + dc, b1, b2, dr * ci + dc, lengths[j])
+        });
+        while let Some(Reverse((d_bits, k))) = self.heap.pop() {
+            let d = f32::from_bits(d_bits);
+            let k = k as usize;
+            if d > self.dist[k] {
+                continue;
+            }
+            let kp = ((k / cells + 2) * w + k % cells + 2) as isize;
+            for &(to, b1, b2, step, len) in &moves {
+                // no corner cutting: the cells a move passes beside must be open too
+                if !(self.padded[(kp + to) as usize]
+                    && self.padded[(kp + b1) as usize]
+                    && self.padded[(kp + b2) as usize])
+                {
+                    continue;
+                }
+                let kk = (k as isize + step) as usize;
+                let nd = d + len * (1.0 + scale * f32::from(self.weight[kk]));
+                if nd < self.dist[kk] {
+                    self.dist[kk] = nd;
+                    self.heap.push(Reverse((nd.to_bits(), kk as u32)));
+                }
+            }
+        }
+    }
+
+    fn seed(&mut self, k: usize, d: f32) {
+        if self.open[k] && d < self.dist[k] {
+            self.dist[k] = d;
+            self.heap.push(Reverse((d.to_bits(), k as u32)));
+        }
+    }
+
+    /// The route length from robot-frame point (x, y) to the goal, m: interpolated bilinearly
+    /// between the four nearest coarse cells' centres where all four have a route, else the
+    /// best of the neighbouring cells' lengths plus the straight way to their centres. Infinite
+    /// where no route is known.
+    pub fn value(&self, x: f32, y: f32) -> f32 {
+        let cs = self.coarse;
+        let n = cs.cells as i32;
+        if n == 0 {
+            return f32::INFINITY;
+        }
+        let h = cs.half_extent_m();
+        let u = (x + h) / cs.cell_m - 0.5;
+        let v = (y + h) / cs.cell_m - 0.5;
+        if !(u > -1.0 && v > -1.0 && u < n as f32 && v < n as f32) {
+            return f32::INFINITY;
+        }
+        let (r0, c0) = (u.floor() as i32, v.floor() as i32);
+        let (fu, fv) = (u - r0 as f32, v - c0 as f32);
+        let at = |r: i32, c: i32| {
+            let (r, c) = (r.clamp(0, n - 1), c.clamp(0, n - 1));
+            self.dist[(r * n + c) as usize]
+        };
+        let (d00, d01, d10, d11) = (
+            at(r0, c0),
+            at(r0, c0 + 1),
+            at(r0 + 1, c0),
+            at(r0 + 1, c0 + 1),
+        );
+        if d00.is_finite() && d01.is_finite() && d10.is_finite() && d11.is_finite() {
+            return (1.0 - fu) * ((1.0 - fv) * d00 + fv * d01) + fu * ((1.0 - fv) * d10 + fv * d11);
+        }
+        let (r, c) = ((u + 0.5).floor() as i32, (v + 0.5).floor() as i32);
+        let mut best = f32::INFINITY;
+        for dr in -1..=1 {
+            for dc in -1..=1 {
+                let (rr, cc) = (r + dr, c + dc);
+                if rr < 0 || cc < 0 || rr >= n || cc >= n {
+                    continue;
+                }
+                let d = self.dist[(rr * n + cc) as usize];
+                if d.is_finite() {
+                    let (cx, cy) = cs.center_of(rr as usize, cc as usize);
+                    best = best.min(d + (x - cx).hypot(y - cy));
+                }
+            }
+        }
+        best
+    }
+
+    /// The coarse grid the route was computed on.
+    pub fn coarse(&self) -> GridSpec {
+        self.coarse
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn build(classes: &[u8], grid: GridSpec, goal: (f32, f32)) -> Route {
+        let cost: Vec<u8> = classes
+            .iter()
+            .map(|&c| if c == cell_class::PASSABLE { 51 } else { 0 })
+            .collect();
+        let mut route = Route::default();
+        route.build(
+            &RouteParams {
+                cell_m: 0.2,
+                radius_m: 0.2,
+                cost_weight: 1.0,
+            },
+            grid,
+            classes,
+            &cost,
+            goal,
+        );
+        route
+    }
+
+    fn grid() -> GridSpec {
+        GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        }
+    }
+
+    fn classes(f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
+        let g = grid();
+        (0..g.len())
+            .map(|i| {
+                let (x, y) = g.center_of(i / g.cells, i % g.cells);
+                f(x, y)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn in_the_open_the_route_is_nearly_the_straight_line() {
+        let open = classes(|_, _| cell_class::FREE);
+        let route = build(&open, grid(), (3.0, 1.3));
+        for (x, y) in [(0.0f32, 0.0f32), (-2.0, 1.0), (1.0, -3.0), (2.9, 1.3)] {
+            let straight = (3.0 - x).hypot(1.3 - y);
+            let v = route.value(x, y);
+            assert!(
+                v >= straight - 0.01 && v <= straight * 1.03 + 0.01,
+                "({x}, {y}): {v} against {straight}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_wall_makes_the_route_go_around_its_end() {
+        // a wall across at x = 1 from y = -4 to y = 1.5; the goal behind it
+        let wall = classes(|x, y| {
+            if (x - 1.0).abs() < 0.05 && y < 1.5 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let route = build(&wall, grid(), (2.0, 0.0));
+        // around the end at (1, 1.5 + radius): about 1.5+ m there and 1.5+ m back
+        let around = 1.0f32.hypot(1.75) + 1.0f32.hypot(1.75);
+        let v = route.value(0.0, 0.0);
+        assert!(
+            v > around - 0.05 && v < around * 1.08,
+            "{v} against {around}"
+        );
+        // going left gets nearer along the route, going right does not
+        assert!(route.value(0.0, 1.0) < v);
+        assert!(route.value(0.0, -1.0) > v);
+    }
+
+    #[test]
+    fn a_goal_outside_the_map_is_reached_through_the_border() {
+        let open = classes(|_, _| cell_class::FREE);
+        let route = build(&open, grid(), (12.0, 0.0));
+        let v = route.value(0.0, 0.0);
+        assert!((v - 12.0).abs() < 0.3, "{v}");
+        // a wall closing the whole map's width: the way round leaves the map at its side,
+        // where the unknown world beyond is assumed open
+        let closed = classes(|x, _| {
+            if (x - 2.0).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let route = build(&closed, grid(), (12.0, 0.0));
+        let v = route.value(0.0, 0.0);
+        assert!(v > 16.0, "by the side of the map: {v}");
+        assert!((route.value(3.0, 0.0) - 9.0).abs() < 0.3);
+    }
+
+    #[test]
+    fn a_door_the_footprint_fits_through_stays_open_and_a_narrower_one_does_not() {
+        let door = |half: f32| {
+            classes(move |x, y| {
+                if (x - 1.0).abs() < 0.05 && y.abs() > half {
+                    cell_class::SOLID
+                } else {
+                    cell_class::FREE
+                }
+            })
+        };
+        // far walls out of reach: the route must use the door
+        let wide = build(&door(0.3), grid(), (3.0, 0.0));
+        assert!(wide.value(0.0, 0.0) < 3.2, "{}", wide.value(0.0, 0.0));
+        let narrow = build(&door(0.12), grid(), (3.0, 0.0));
+        assert!(narrow.value(0.0, 0.0).is_infinite());
+    }
+
+    #[test]
+    fn grass_costs_a_little_more_than_free_ground() {
+        let grass = classes(|x, _| {
+            if (0.5..2.5).contains(&x) {
+                cell_class::PASSABLE
+            } else {
+                cell_class::FREE
+            }
+        });
+        let route = build(&grass, grid(), (3.0, 0.0));
+        let v = route.value(0.0, 0.0);
+        // 2 m of grass at 1.2 per metre, 1 m of free ground
+        assert!((v - 3.4).abs() < 0.15, "{v}");
+    }
+
+    #[test]
+    fn a_map_without_data_has_no_route_and_no_panic() {
+        let mut route = Route::default();
+        route.build(
+            &RouteParams {
+                cell_m: 0.2,
+                radius_m: 0.2,
+                cost_weight: 1.0,
+            },
+            grid(),
+            &[],
+            &[],
+            (1.0, 0.0),
+        );
+        assert!(route.value(0.0, 0.0).is_infinite());
+    }
+}
