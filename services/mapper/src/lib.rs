@@ -24,6 +24,7 @@
 //! equation 3 alone decides.)
 #![deny(missing_docs)]
 
+pub mod baseline;
 pub mod glass;
 pub mod render;
 pub mod score;

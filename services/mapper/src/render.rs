@@ -18,7 +18,8 @@ pub struct Image {
 }
 
 impl Image {
-    fn new(width: usize, height: usize) -> Self {
+    /// A black image.
+    pub fn new(width: usize, height: usize) -> Self {
         Image {
             width,
             height,
@@ -26,14 +27,29 @@ impl Image {
         }
     }
 
-    fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
+    /// Colours pixel (x, y); nothing outside the image.
+    pub fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
         if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
             let o = (y as usize * self.width + x as usize) * 3;
             self.rgb[o..o + 3].copy_from_slice(&c);
         }
     }
 
-    fn disc(&mut self, cx: f64, cy: f64, r: f64, c: [u8; 3]) {
+    /// A line from (x0, y0) to (x1, y1), pixels.
+    pub fn line(&mut self, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3]) {
+        let steps = (x1 - x0).abs().max((y1 - y0).abs()).ceil().max(1.0) as i64;
+        for k in 0..=steps {
+            let t = k as f64 / steps as f64;
+            self.put(
+                (x0 + (x1 - x0) * t).round() as i64,
+                (y0 + (y1 - y0) * t).round() as i64,
+                c,
+            );
+        }
+    }
+
+    /// A filled disc of radius `r` around (cx, cy), pixels.
+    pub fn disc(&mut self, cx: f64, cy: f64, r: f64, c: [u8; 3]) {
         let ri = r.ceil() as i64;
         for dy in -ri..=ri {
             for dx in -ri..=ri {
@@ -70,8 +86,9 @@ pub struct Marks {
 /// Pixels per cell.
 pub const SCALE: usize = 3;
 
-/// Image pixel of robot-frame (x, y): x forward is up, y left is left.
-fn pixel(grid: GridSpec, x: f64, y: f64) -> (f64, f64) {
+/// Image pixel of robot-frame (x, y) in [`render_map`]'s picture: x forward is up, y left is
+/// left.
+pub fn pixel(grid: GridSpec, x: f64, y: f64) -> (f64, f64) {
     let h = f64::from(grid.half_extent_m());
     let px_per_m = SCALE as f64 / f64::from(grid.cell_m);
     ((h - y) * px_per_m, (h - x) * px_per_m)
