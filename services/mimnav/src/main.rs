@@ -1,6 +1,8 @@
 //! `mimnav`: the command-line front end. It starts the services as separate processes and shows
 //! what they publish; it never runs an algorithm itself.
 
+mod demo;
+mod eval;
 mod goal;
 mod procs;
 mod replay;
@@ -40,6 +42,14 @@ enum Command {
     /// Score the mapper on simulated worlds against their ground truth: precision, recall and
     /// F-score per class.
     ScoreMap(score_map::ScoreMapArgs),
+    /// The main job: start the driver, mapper and planner as processes with the simulator
+    /// streaming UDP packets to the driver, drive from the world's start to its goal, write a PNG
+    /// of the map with the driven path and print the figures (exit 0 when the goal is reached).
+    Demo(demo::DemoArgs),
+    /// Reproduce the paper's Table I: the scenario worlds × the intensity map (adaptive and
+    /// uniform inflation) and the two baselines × seeds, lock-step in-process; success rate,
+    /// normalised trajectory length, F-score, trajectory plots.
+    Eval(eval::EvalArgs),
     /// Write the next map the mapper publishes as a PNG, in the paper's colours.
     Snapshot(snapshot::SnapshotArgs),
     /// Send a navigation goal (odometry frame) to the running planner.
@@ -72,7 +82,9 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
         Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
+        Command::Demo(args) => demo::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
+        Command::Eval(args) => eval::run(&config, args),
         Command::Snapshot(args) => snapshot::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
         Command::CheckConfig => {

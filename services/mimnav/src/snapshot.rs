@@ -28,7 +28,8 @@ pub struct SnapshotArgs {
     timeout: f64,
 }
 
-fn write_png(path: &std::path::Path, img: &Image) -> Result<()> {
+/// Writes `img` as an RGB PNG.
+pub fn write_png(path: &std::path::Path, img: &Image) -> Result<()> {
     let file =
         std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut enc = png::Encoder::new(

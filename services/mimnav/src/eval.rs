@@ -1,0 +1,663 @@
+//! `mimnav eval`: the paper's Table I reproduced on the simulator's scenario worlds.
+//!
+//! Every episode runs in one thread, lock-step and deterministic (a seed gives the same episode
+//! every time): the simulator's packets go through the driver's decoder and revolution
+//! assembler; each revolution makes a map — the intensity map of the mapper, or one of the
+//! paper's baselines that take every return as an obstacle — and the planner turns it into the
+//! (v, ω) the simulator drives until the next revolution. Episodes run in parallel, one per core.
+//!
+//! Metrics (DESIGN §10): success (the goal within the world's time limit, no contact with a solid
+//! or glass object), normalised trajectory length (path over the straight start–goal distance,
+//! of successful runs; the straight distance ends on the goal circle), the F-score of the map's classes against the ground truth (mean over the
+//! classes the world has, cells within 4.5 m, every fifth revolution), and planner time.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{Context, Result};
+use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
+use mimnav_mapper::glass::Pose2;
+use mimnav_mapper::render::{self, Image};
+use mimnav_mapper::score::{MapScore, score};
+use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
+use mimnav_planner::dwa::DwaOutcome;
+use mimnav_planner::inflate::Inflation;
+use mimnav_planner::{Planner, PlannerParams};
+use mimnav_shared::config::Config;
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::topics::cell_class;
+use mimnav_sim::world::{Scene, WorldFile};
+use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Pose, Sim, SimSettings};
+use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
+
+/// A way of making the map the planner drives on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// The intensity map with adaptive inflation along the goal direction (the paper's method).
+    Adaptive,
+    /// The intensity map with uniform inflation (the paper's ablation).
+    Uniform,
+    /// Baseline: DWA on the planar scan of one laser, every return an obstacle.
+    LaserScan,
+    /// Baseline: DWA on an occupancy map of every return in the robot's height band.
+    Occupancy,
+}
+
+impl Method {
+    /// Name in tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::Adaptive => "intensity map, adaptive inflation",
+            Method::Uniform => "intensity map, uniform inflation",
+            Method::LaserScan => "DWA on a laser scan",
+            Method::Occupancy => "DWA on an occupancy map",
+        }
+    }
+
+    /// Name on the command line and in JSON.
+    pub fn key(self) -> &'static str {
+        match self {
+            Method::Adaptive => "adaptive",
+            Method::Uniform => "uniform",
+            Method::LaserScan => "laser-scan",
+            Method::Occupancy => "occupancy",
+        }
+    }
+
+    /// Colour of its paths in the trajectory plots.
+    pub fn colour(self) -> [u8; 3] {
+        match self {
+            Method::Adaptive => [255, 60, 200],
+            Method::Uniform => [0, 200, 255],
+            Method::LaserScan => [255, 150, 0],
+            Method::Occupancy => [230, 30, 30],
+        }
+    }
+
+    fn colour_name(self) -> &'static str {
+        match self {
+            Method::Adaptive => "magenta",
+            Method::Uniform => "cyan",
+            Method::LaserScan => "orange",
+            Method::Occupancy => "red",
+        }
+    }
+}
+
+/// Arguments of `mimnav eval`.
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Worlds (default: the four Table I scenarios in the config's worlds folder).
+    #[arg(long = "world", value_name = "FILE")]
+    worlds: Vec<PathBuf>,
+    /// Methods (default: all four).
+    #[arg(long = "method", value_enum)]
+    methods: Vec<Method>,
+    /// Seeds per world and method.
+    #[arg(long, default_value_t = 20)]
+    seeds: u64,
+    /// The first seed.
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// Parallel episodes (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Folder for the trajectory plots (one PNG per world); none written without it.
+    #[arg(long, value_name = "DIR")]
+    plots: Option<PathBuf>,
+    /// One JSON line per episode on standard output, after the table.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// How an episode ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ending {
+    /// Reached the goal without contact.
+    Success,
+    /// Touched a solid or glass object.
+    Contact,
+    /// Ran out of time standing (moved less than 0.2 m in its last 10 s): froze.
+    Froze,
+    /// Ran out of time while moving.
+    Timeout,
+}
+
+impl Ending {
+    fn name(self) -> &'static str {
+        match self {
+            Ending::Success => "success",
+            Ending::Contact => "contact",
+            Ending::Froze => "froze",
+            Ending::Timeout => "timeout",
+        }
+    }
+}
+
+/// The record of one episode.
+#[derive(Debug, Clone)]
+pub struct Episode {
+    /// World name.
+    pub world: String,
+    /// Method.
+    pub method: Method,
+    /// Seed.
+    pub seed: u64,
+    /// How it ended.
+    pub ending: Ending,
+    /// Path driven, m.
+    pub path_m: f64,
+    /// Straight distance from the start to the goal circle (sim.goal_tolerance_m), m.
+    pub straight_m: f64,
+    /// Simulated time, s.
+    pub elapsed_s: f64,
+    /// Map scores, summed.
+    pub score: MapScore,
+    /// Revolutions.
+    pub revolutions: u64,
+    /// Revolutions the planner found no feasible motion.
+    pub blocked: u64,
+    /// Planner time, summed, ns.
+    pub plan_ns: u128,
+    /// Mapper (or baseline map) time, summed, ns.
+    pub map_ns: u128,
+    /// The robot's (x, y) once a revolution.
+    pub trajectory: Vec<(f64, f64)>,
+}
+
+/// Runs one episode of `scene` with `method` and `seed`.
+pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) -> Result<Episode> {
+    let grid = config.map.grid();
+    let goal = scene.goal;
+    // the shortest drive ends on the goal circle
+    let straight_m = ((goal[0] - scene.start[0]).hypot(goal[1] - scene.start[1])
+        - config.sim.goal_tolerance_m)
+        .max(0.01);
+    let mut sim = Sim::new(
+        scene.clone(),
+        SimSettings::from_config(config),
+        seed,
+        DEFAULT_EPOCH_NS,
+    );
+    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
+    let mut mapper = Mapper::new(MapperParams::from_config(config));
+    let mut params = PlannerParams::from_config(config);
+    params.inflation = match method {
+        Method::Adaptive => Inflation::Adaptive,
+        // the baselines use the usual costmap: uniform inflation
+        Method::Uniform | Method::LaserScan | Method::Occupancy => Inflation::Uniform,
+    };
+    let mut planner = Planner::new(params);
+    let (mut baseline, mut truth) = (Vec::new(), Vec::new());
+    let mut episode = Episode {
+        world: scene.name.clone(),
+        method,
+        seed,
+        ending: Ending::Timeout,
+        path_m: 0.0,
+        straight_m,
+        elapsed_s: 0.0,
+        score: MapScore::default(),
+        revolutions: 0,
+        blocked: 0,
+        plan_ns: 0,
+        map_ns: 0,
+        trajectory: vec![(scene.start[0], scene.start[1])],
+    };
+    let r = &config.robot;
+    let (low, high) = (
+        config.mapper.ground_clearance_m as f32,
+        r.height_m.max(r.sensor_height_m) as f32 + 0.1,
+    );
+    while sim.outcome() == Outcome::Running {
+        let step = sim.step();
+        let Some(rev) = asm
+            .push(&step.data, step.first_firing_ns, 0)
+            .context("the driver refused a simulated packet")?
+        else {
+            continue;
+        };
+        episode.revolutions += 1;
+        let b = *sim.base();
+        let t = std::time::Instant::now();
+        let classes: &[u8] = match method {
+            Method::Adaptive | Method::Uniform => {
+                mapper.update(
+                    &rev.points,
+                    OdomInput::Fresh(Odom {
+                        pose: Pose2 {
+                            x: b.pose.x,
+                            y: b.pose.y,
+                            yaw: b.pose.yaw,
+                        },
+                        v: b.v,
+                        omega: b.omega,
+                    }),
+                    rev.header.stamp_ns,
+                );
+                mapper.classes()
+            }
+            Method::LaserScan => {
+                scan_occupancy(&rev.scan, grid, &mut baseline);
+                &baseline
+            }
+            Method::Occupancy => {
+                cloud_occupancy(
+                    &rev.points,
+                    grid,
+                    r.sensor_height_m as f32,
+                    low,
+                    high,
+                    &mut baseline,
+                );
+                &baseline
+            }
+        };
+        episode.map_ns += t.elapsed().as_nanos();
+        if episode.revolutions.is_multiple_of(5) {
+            sim.truth(grid, &mut truth);
+            episode.score.add(&score(classes, &truth, grid, 4.5));
+        }
+        let (s, c) = b.pose.yaw.sin_cos();
+        let (dx, dy) = (goal[0] - b.pose.x, goal[1] - b.pose.y);
+        let goal_robot = (c * dx + s * dy, -s * dx + c * dy);
+        let t = std::time::Instant::now();
+        let outcome = planner.plan(classes, grid, b.v, b.omega, goal_robot);
+        episode.plan_ns += t.elapsed().as_nanos();
+        match outcome {
+            DwaOutcome::Drive { v, omega, .. } => sim.set_command(v, omega),
+            DwaOutcome::Blocked => {
+                episode.blocked += 1;
+                sim.set_command(0.0, 0.0)
+            }
+        }
+        episode.trajectory.push((b.pose.x, b.pose.y));
+    }
+    episode.path_m = sim.path_length_m();
+    episode.elapsed_s = sim.elapsed_s();
+    episode.ending = match sim.outcome() {
+        Outcome::GoalReached => Ending::Success,
+        Outcome::Contact(_) => Ending::Contact,
+        _ => {
+            // revolutions in the last 10 s
+            let revs = (10.0 * config.velodyne.rpm / 60.0) as usize;
+            let t = &episode.trajectory;
+            let from = t[t.len().saturating_sub(revs.max(1))];
+            let to = t[t.len() - 1];
+            if (to.0 - from.0).hypot(to.1 - from.1) < 0.2 {
+                Ending::Froze
+            } else {
+                Ending::Timeout
+            }
+        }
+    };
+    Ok(episode)
+}
+
+/// Per world and method: what the table shows.
+#[derive(Debug, Clone, Default)]
+pub struct Summary {
+    /// Episodes.
+    pub runs: usize,
+    /// Successes.
+    pub successes: usize,
+    /// Contacts, freezes, timeouts.
+    pub contacts: usize,
+    /// Froze.
+    pub froze: usize,
+    /// Timed out moving.
+    pub timeouts: usize,
+    /// Normalised lengths of successful runs.
+    pub lengths: Vec<f64>,
+    /// Map scores.
+    pub score: MapScore,
+    /// Planner and map time, ns, and revolutions.
+    pub plan_ns: u128,
+    /// Map time, ns.
+    pub map_ns: u128,
+    /// Revolutions.
+    pub revolutions: u64,
+}
+
+impl Summary {
+    fn add(&mut self, e: &Episode) {
+        self.runs += 1;
+        match e.ending {
+            Ending::Success => {
+                self.successes += 1;
+                self.lengths.push(e.path_m / e.straight_m.max(1e-9));
+            }
+            Ending::Contact => self.contacts += 1,
+            Ending::Froze => self.froze += 1,
+            Ending::Timeout => self.timeouts += 1,
+        }
+        self.score.add(&e.score);
+        self.plan_ns += e.plan_ns;
+        self.map_ns += e.map_ns;
+        self.revolutions += e.revolutions;
+    }
+
+    /// Success rate, 0–1.
+    pub fn success_rate(&self) -> f64 {
+        self.successes as f64 / self.runs.max(1) as f64
+    }
+
+    /// Mean normalised length of the successful runs.
+    pub fn mean_length(&self) -> Option<f64> {
+        (!self.lengths.is_empty())
+            .then(|| self.lengths.iter().sum::<f64>() / self.lengths.len() as f64)
+    }
+
+    /// Mean F-score over the classes the world has (solid, passable, glass).
+    pub fn f_score(&self) -> f64 {
+        let s = &self.score;
+        let present: Vec<f64> = [&s.solid, &s.passable, &s.glass]
+            .into_iter()
+            .filter(|c| c.tp + c.fn_ > 0)
+            .map(|c| c.f_score())
+            .collect();
+        present.iter().sum::<f64>() / present.len().max(1) as f64
+    }
+}
+
+fn scenario_worlds(config: &Config) -> Result<Vec<PathBuf>> {
+    let dir = config.sim.world_path(&config.dir());
+    let dir = dir
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .with_context(|| format!("cannot list the worlds in {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "toml")
+                && p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("scenario"))
+        })
+        .collect();
+    v.sort();
+    anyhow::ensure!(
+        !v.is_empty(),
+        "no scenario*.toml worlds in {}: name them with --world",
+        dir.display()
+    );
+    Ok(v)
+}
+
+/// Runs the evaluation and prints the table.
+pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
+    let paths = if args.worlds.is_empty() {
+        scenario_worlds(config)?
+    } else {
+        args.worlds.clone()
+    };
+    let methods = if args.methods.is_empty() {
+        vec![
+            Method::Adaptive,
+            Method::Uniform,
+            Method::LaserScan,
+            Method::Occupancy,
+        ]
+    } else {
+        args.methods.clone()
+    };
+    anyhow::ensure!(args.seeds > 0, "--seeds must be at least 1");
+    let mut scenes = Vec::new();
+    for p in &paths {
+        scenes.push(WorldFile::load(p)?.compile());
+    }
+    let mut jobs = Vec::new();
+    for (w, _) in scenes.iter().enumerate() {
+        for &m in &methods {
+            for s in 0..args.seeds {
+                jobs.push((w, m, args.first_seed + s));
+            }
+        }
+    }
+    let workers = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .clamp(1, 64);
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let b = indicatif::ProgressBar::new(jobs.len() as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} episodes, {eta} left {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    };
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Result<Episode>>> = Mutex::new(Vec::new());
+    let started = std::time::Instant::now();
+    std::thread::scope(|s| {
+        for _ in 0..workers.min(jobs.len()) {
+            s.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&(w, m, seed)) = jobs.get(k) else {
+                        break;
+                    };
+                    let e = run_episode(config, &scenes[w], m, seed)
+                        .with_context(|| format!("{}, {}, seed {seed}", scenes[w].name, m.label()));
+                    if let Ok(ep) = &e
+                        && ep.ending != Ending::Success
+                    {
+                        bar.set_message(format!(
+                            "(last failure: {}, {}, seed {}: {})",
+                            ep.world,
+                            m.label(),
+                            seed,
+                            ep.ending.name()
+                        ));
+                    }
+                    if let Ok(mut r) = results.lock() {
+                        r.push(e);
+                    }
+                    bar.inc(1);
+                }
+            });
+        }
+    });
+    bar.finish_and_clear();
+    let mut episodes = Vec::new();
+    for e in results.into_inner().unwrap_or_default() {
+        episodes.push(e?);
+    }
+    episodes.sort_by_key(|e| (e.world.clone(), e.method as u8, e.seed));
+    let wall = started.elapsed().as_secs_f64();
+    println!(
+        "{} seeds per world and method (from seed {}), lock-step; F-score: mean over the classes the world has, cells within 4.5 m, every fifth revolution\n",
+        args.seeds, args.first_seed
+    );
+    println!(
+        "| scenario | method | success | normalised length | F-score | contact / froze / timeout | planner µs/rev | map µs/rev |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut all = Summary::default();
+    for scene in &scenes {
+        for &m in &methods {
+            let mut s = Summary::default();
+            for e in episodes
+                .iter()
+                .filter(|e| e.world == scene.name && e.method == m)
+            {
+                s.add(e);
+            }
+            if m == Method::Adaptive {
+                for e in episodes
+                    .iter()
+                    .filter(|e| e.world == scene.name && e.method == m)
+                {
+                    all.add(e);
+                }
+            }
+            println!(
+                "| {} | {} | {:.0} % ({}/{}) | {} | {:.3} | {} / {} / {} | {:.0} | {:.0} |",
+                scene.name,
+                m.label(),
+                100.0 * s.success_rate(),
+                s.successes,
+                s.runs,
+                s.mean_length()
+                    .map_or_else(|| "–".to_string(), |l| format!("{l:.3}")),
+                s.f_score(),
+                s.contacts,
+                s.froze,
+                s.timeouts,
+                s.plan_ns as f64 / 1e3 / s.revolutions.max(1) as f64,
+                s.map_ns as f64 / 1e3 / s.revolutions.max(1) as f64,
+            );
+        }
+    }
+    if let Some(dir) = &args.plots {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for (w, scene) in scenes.iter().enumerate() {
+            let stem = paths[w]
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("world");
+            let path = dir.join(format!("{stem}.png"));
+            let eps: Vec<&Episode> = episodes.iter().filter(|e| e.world == scene.name).collect();
+            crate::snapshot::write_png(&path, &plot(scene, &eps))?;
+            println!("\nwrote {}", path.display());
+        }
+        let legend: Vec<String> = methods
+            .iter()
+            .map(|m| format!("{} {}", m.colour_name(), m.label()))
+            .collect();
+        println!("paths: {}; start white, goal blue", legend.join(", "));
+    }
+    if args.json {
+        for e in &episodes {
+            println!(
+                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1}}}",
+                e.world,
+                e.method.key(),
+                e.seed,
+                e.ending.name(),
+                e.path_m,
+                e.straight_m,
+                e.elapsed_s,
+                e.revolutions,
+                e.blocked,
+                e.score.solid.f_score(),
+                e.score.passable.f_score(),
+                e.score.glass.f_score(),
+                e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64
+            );
+        }
+    }
+    let adaptive = episodes
+        .iter()
+        .filter(|e| e.method == Method::Adaptive)
+        .count();
+    println!(
+        "\n{} episodes in {:.0} s on {} threads; intensity map with adaptive inflation: {:.1} % success over {} episodes, normalised length {}",
+        episodes.len(),
+        wall,
+        workers,
+        100.0 * all.success_rate(),
+        adaptive,
+        all.mean_length()
+            .map_or_else(|| "–".to_string(), |l| format!("{l:.3}"))
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A top view of `scene` (the true classes) with every episode's path.
+fn plot(scene: &Scene, episodes: &[&Episode]) -> Image {
+    // the world's extent: objects, start, goal and every path
+    let (mut x0, mut y0, mut x1, mut y1) = (
+        scene.start[0],
+        scene.start[1],
+        scene.start[0],
+        scene.start[1],
+    );
+    let mut grow = |x: f64, y: f64, r: f64| {
+        x0 = x0.min(x - r);
+        y0 = y0.min(y - r);
+        x1 = x1.max(x + r);
+        y1 = y1.max(y + r);
+    };
+    grow(scene.goal[0], scene.goal[1], 0.5);
+    for o in &scene.objects {
+        let (c, r) = o.bound;
+        grow(c[0], c[1], r.min(12.0));
+    }
+    for e in episodes {
+        for &(x, y) in &e.trajectory {
+            grow(x, y, 0.5);
+        }
+    }
+    let cell = 0.05f32;
+    let cells = ((x1 - x0).max(y1 - y0) / f64::from(cell))
+        .ceil()
+        .clamp(10.0, 600.0) as usize;
+    let grid = GridSpec {
+        cells,
+        cell_m: cell,
+    };
+    let centre = Pose {
+        x: 0.5 * (x0 + x1),
+        y: 0.5 * (y0 + y1),
+        yaw: 0.0,
+    };
+    let mut classes = Vec::new();
+    mimnav_sim::truth::truth_grid(scene, centre, grid, &mut classes);
+    // x to the right, y up
+    let px = 2usize;
+    let mut img = Image::new(cells * px, cells * px);
+    let h = f64::from(grid.half_extent_m());
+    let to_px = |x: f64, y: f64| {
+        (
+            (x - centre.x + h) / f64::from(cell) * px as f64,
+            (h - (y - centre.y)) / f64::from(cell) * px as f64,
+        )
+    };
+    for v in 0..img.height {
+        for u in 0..img.width {
+            let x = (u as f64 + 0.5) / px as f64 * f64::from(cell) - h;
+            let y = h - (v as f64 + 0.5) / px as f64 * f64::from(cell);
+            let class = grid
+                .cell_of(x as f32, y as f32)
+                .map_or(cell_class::FREE, |(r, c)| classes[grid.index(r, c)]);
+            let colour = match class {
+                cell_class::SOLID => [200, 200, 200],
+                cell_class::PASSABLE => render::PASSABLE,
+                cell_class::GLASS => render::GLASS,
+                _ => [0, 0, 0],
+            };
+            img.put(u as i64, v as i64, colour);
+        }
+    }
+    for e in episodes {
+        for w in e.trajectory.windows(2) {
+            img.line(
+                to_px(w[0].0, w[0].1),
+                to_px(w[1].0, w[1].1),
+                e.method.colour(),
+            );
+        }
+        if e.ending == Ending::Contact
+            && let Some(&(x, y)) = e.trajectory.last()
+        {
+            let (u, v) = to_px(x, y);
+            img.disc(u, v, 3.0, [255, 0, 0]);
+        }
+    }
+    let (u, v) = to_px(scene.start[0], scene.start[1]);
+    img.disc(u, v, 4.0, [255, 255, 255]);
+    let (u, v) = to_px(scene.goal[0], scene.goal[1]);
+    img.disc(u, v, 5.0, render::GOAL);
+    img
+}
