@@ -143,3 +143,98 @@ fn score_map_meets_the_targets_where_the_readme_says_it_does() {
         "one wall: {stdout}"
     );
 }
+
+#[test]
+fn the_demo_drives_the_open_field_to_its_goal_as_separate_processes() {
+    let png = crate::util::TempFile(
+        std::env::temp_dir().join(format!("mimnav-demo-{}.png", std::process::id())),
+    );
+    let out = Command::new(bin("mimnav"))
+        .arg("--config")
+        .arg(shipped_config())
+        .arg("demo")
+        .arg("--world")
+        .arg(shipped_config().with_file_name("worlds/open_field.toml"))
+        .arg("--out")
+        .arg(&png.0)
+        .output()
+        .expect("run mimnav demo");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("goal_reached"), "{stdout}");
+    // the latency line names its figures, measured over the revolutions
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("latency"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let over: u32 = line
+        .split(" over ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(over >= 50, "most revolutions were measured: {line}");
+    assert!(
+        line.contains("p50") && line.contains("p99") && !line.contains("NaN"),
+        "{line}"
+    );
+    let bytes = std::fs::read(&png.0).expect("the PNG was written");
+    assert_eq!(&bytes[1..4], b"PNG");
+}
+
+#[test]
+fn the_demo_names_a_missing_world() {
+    let out = Command::new(bin("mimnav"))
+        .arg("--config")
+        .arg(shipped_config())
+        .args(["demo", "--world", "/nonexistent/world.toml"])
+        .output()
+        .expect("run mimnav demo");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("/nonexistent/world.toml"), "{stderr}");
+}
+
+#[test]
+fn eval_reaches_the_goal_of_scenario_2_and_the_laser_scan_baseline_does_not() {
+    // one seed, two methods: the intensity map drives through the curtain; the laser scan
+    // sees the curtain as a wall
+    let out = Command::new(bin("mimnav"))
+        .arg("--config")
+        .arg(shipped_config())
+        .args([
+            "eval",
+            "--seeds",
+            "1",
+            "--quiet",
+            "--json",
+            "--method",
+            "adaptive",
+            "--method",
+            "laser-scan",
+            "--world",
+        ])
+        .arg(shipped_config().with_file_name("worlds/scenario2_curtain_door.toml"))
+        .output()
+        .expect("run mimnav eval");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let episode = |method: &str| {
+        stdout
+            .lines()
+            .find(|l| l.starts_with('{') && l.contains(&format!("\"method\":\"{method}\"")))
+            .unwrap_or_else(|| panic!("{method} in {stdout}"))
+            .to_string()
+    };
+    assert!(
+        episode("adaptive").contains("\"ending\":\"success\""),
+        "{stdout}"
+    );
+    assert!(
+        !episode("laser-scan").contains("\"ending\":\"success\""),
+        "{stdout}"
+    );
+    assert!(stdout.contains("| scenario 2"), "the table: {stdout}");
+}

@@ -1,0 +1,319 @@
+//! `mimnav demo`: the whole stack as separate processes, driving a simulated robot from its start
+//! to its goal.
+//!
+//! The simulator streams the VLP-16's UDP packets to the driver over loopback in real time, as a
+//! real sensor would; the driver, the mapper and the planner run as their own processes and talk
+//! over iceoryx2 in a private domain (they never meet a stack already running on the machine);
+//! the simulator drives the robot by the planner's `cmd_vel`. The demo sends the world's goal,
+//! follows the episode with a progress bar, measures the latency from each revolution's last
+//! packet to the command planned from it (from the messages' own sequence numbers and
+//! monotonic timestamps), writes the last map with the driven path as a PNG and prints the
+//! figures. Exit status: 0 when the goal was reached, 3 on contact or timeout.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::process::{ExitCode, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use mimnav_mapper::render::{self, Marks, render_map};
+use mimnav_shared::config::{Config, toml_quote};
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::ipc::{self, PrivateDomain};
+use mimnav_shared::topics::{Goal, MapHeader, command_status};
+use mimnav_sim::world::WorldFile;
+
+use crate::procs::{Service, service_binary};
+
+/// Arguments of `mimnav demo`.
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// The world (default: sim.world of the config).
+    #[arg(long, value_name = "FILE")]
+    world: Option<PathBuf>,
+    /// The robot profile: spot or turtlebot2 (default: the config's).
+    #[arg(long, value_name = "NAME")]
+    robot: Option<String>,
+    /// Seed of the simulation (default: sim.seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Where to write the map with the driven path.
+    #[arg(long, value_name = "PNG", default_value = "mimnav-demo.png")]
+    out: PathBuf,
+}
+
+/// Percentile `q` (0–1) of sorted values.
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+/// A loopback UDP port nobody uses right now.
+fn free_port() -> Result<u16> {
+    let s = std::net::UdpSocket::bind("127.0.0.1:0").context("cannot find a free UDP port")?;
+    Ok(s.local_addr()
+        .context("cannot find a free UDP port")?
+        .port())
+}
+
+/// Runs the demo.
+pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Result<ExitCode> {
+    let mut sets = sets.to_vec();
+    if let Some(r) = &args.robot {
+        sets.push(format!("robot.profile={}", toml_quote(r)));
+    }
+    let config = Config::resolve(config_path, &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let world_path = args
+        .world
+        .clone()
+        .unwrap_or_else(|| config.sim.world_path(&config.dir()));
+    let world = WorldFile::load(&world_path)?;
+    let domain = PrivateDomain::new("demo");
+    let local = domain.apply(config.clone());
+    let (data_port, position_port) = (free_port()?, free_port()?);
+
+    let mut child_args: Vec<String> = Vec::new();
+    if let Some(p) = config_path {
+        child_args.extend(["--config".into(), p.display().to_string()]);
+    }
+    for s in &sets {
+        child_args.extend(["--set".into(), s.clone()]);
+    }
+    child_args.extend(domain.set_args());
+    for s in [
+        format!("velodyne.input={}", toml_quote("udp")),
+        format!("velodyne.bind_address={}", toml_quote("127.0.0.1")),
+        format!("velodyne.data_port={data_port}"),
+        format!("velodyne.position_port={position_port}"),
+        format!("sim.udp_target={}", toml_quote("127.0.0.1")),
+        format!("log.level={}", toml_quote("warn")),
+    ] {
+        child_args.extend(["--set".into(), s]);
+    }
+
+    let node = ipc::node(&local, "mimnav-demo")?;
+    let plans = ipc::plan_subscriber(&node)?;
+    let commands = ipc::cmd_vel_subscriber(&node)?;
+    let odom = ipc::odom_subscriber(&node)?;
+    let goal_pub = ipc::goal_publisher(&node)?;
+
+    println!(
+        "{}: from ({:.1}, {:.1}) to ({:.1}, {:.1}) with a {} ({} m radius); driver, mapper and planner as processes, the simulator streaming UDP to 127.0.0.1:{data_port}",
+        world.name,
+        world.start[0],
+        world.start[1],
+        world.goal[0],
+        world.goal[1],
+        config.robot.name,
+        config.robot.radius_m
+    );
+    let mut services = Vec::new();
+    for name in ["mimnav-velodyne", "mimnav-mapper", "mimnav-planner"] {
+        services.push(Service::start(&service_binary(name)?, &child_args)?);
+    }
+    // the planner is up when it speaks (a stale-input stop every 100 ms while no map comes)
+    let until = Instant::now() + Duration::from_secs(10);
+    loop {
+        if commands.receive()?.is_some() {
+            break;
+        }
+        if let Some(s) = services
+            .iter_mut()
+            .find_map(|s| s.exited().map(|e| (s.name().to_string(), e)))
+        {
+            bail!("{} exited at start ({}); see its messages above", s.0, s.1);
+        }
+        if Instant::now() > until {
+            bail!("the planner did not publish on cmd_vel within 10 s");
+        }
+        if node.wait(Duration::from_millis(20)).is_err() {
+            return Ok(ExitCode::from(130));
+        }
+    }
+    let goal = Goal {
+        seq: 0,
+        stamp_mono_ns: ipc::monotonic_ns(),
+        x: world.goal[0],
+        y: world.goal[1],
+        tolerance_m: config.sim.goal_tolerance_m,
+    };
+    goal_pub.publish(goal)?;
+
+    let mut sim_args = child_args.clone();
+    sim_args.extend(["--world".into(), world_path.display().to_string()]);
+    sim_args.push("--json".into());
+    if let Some(s) = args.seed {
+        sim_args.extend(["--seed".into(), s.to_string()]);
+    }
+    let sim_bin = service_binary("mimnav-sim")?;
+    let mut sim = std::process::Command::new(&sim_bin)
+        .args(&sim_args)
+        .stdout(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("cannot start {}", sim_bin.display()))?;
+    let started = Instant::now();
+
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{elapsed_precise} {spinner} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    // revolution sequence → its last packet's receive time (from the map header)
+    let mut received: VecDeque<(u64, u64)> = VecDeque::new();
+    let mut latencies_ms = Vec::new();
+    let (mut maps, mut cmds, mut blocked, mut stale) = (0u64, 0u64, 0u64, 0u64);
+    let mut last_map: Option<(MapHeader, Vec<u8>)> = None;
+    let mut path: Vec<(f64, f64)> = Vec::new();
+    let mut goal_seen = false;
+    let mut interrupted = false;
+    let status = loop {
+        if let Some(s) = sim.try_wait().context("cannot wait for the simulator")? {
+            break s;
+        }
+        if node.wait(Duration::from_millis(5)).is_err() {
+            interrupted = true;
+            // the simulator got the same Ctrl-C; wait for its summary
+            break sim.wait().context("cannot wait for the simulator")?;
+        }
+        while let Some(sample) = plans.receive()? {
+            let h = *sample.user_header();
+            received.push_back((h.source_seq, h.rx_mono_ns));
+            if received.len() > 64 {
+                received.pop_front();
+            }
+            let classes: Vec<u8> = sample.payload().iter().map(|c| c.class).collect();
+            drop(sample);
+            last_map = Some((h, classes));
+            maps += 1;
+        }
+        while let Some(c) = commands.receive()? {
+            cmds += 1;
+            match c.status {
+                command_status::BLOCKED => blocked += 1,
+                command_status::STALE_INPUT => stale += 1,
+                command_status::NO_GOAL if !goal_seen => {
+                    // the goal went out before the planner listened: again
+                    goal_pub.publish(Goal {
+                        stamp_mono_ns: ipc::monotonic_ns(),
+                        ..goal
+                    })?;
+                }
+                _ => {}
+            }
+            if c.status == command_status::DRIVING || c.status == command_status::GOAL_REACHED {
+                goal_seen = true;
+            }
+            if let Some(&(_, rx)) = received.iter().find(|(seq, _)| *seq == c.source_seq)
+                && c.status != command_status::STALE_INPUT
+                && rx > 0
+            {
+                latencies_ms.push(c.stamp_mono_ns.saturating_sub(rx) as f64 / 1e6);
+            }
+        }
+        if let Some(o) = odom.latest()? {
+            if path
+                .last()
+                .is_none_or(|p| (p.0 - o.x).hypot(p.1 - o.y) > 0.02)
+            {
+                path.push((o.x, o.y));
+            }
+            bar.set_message(format!(
+                "at ({:.2}, {:.2}), {:.2} m to the goal, v {:.2} m/s ω {:.2} rad/s; {maps} maps, {cmds} commands",
+                o.x,
+                o.y,
+                (world.goal[0] - o.x).hypot(world.goal[1] - o.y),
+                o.v,
+                o.omega
+            ));
+        }
+    };
+    bar.finish_and_clear();
+    let wall_s = started.elapsed().as_secs_f64();
+    let mut summary = String::new();
+    if let Some(mut out) = sim.stdout.take() {
+        std::io::Read::read_to_string(&mut out, &mut summary).ok();
+    }
+    for s in &mut services {
+        s.stop(Duration::from_secs(2));
+    }
+    let field = |k: &str| -> Option<String> {
+        let at = summary.find(&format!("\"{k}\":"))? + k.len() + 3;
+        Some(
+            summary[at..]
+                .split([',', '}'])
+                .next()?
+                .trim_matches('"')
+                .to_string(),
+        )
+    };
+    let outcome = field("outcome").unwrap_or_else(|| "unknown".into());
+    let num = |k: &str| {
+        field(k)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+
+    if let Some((h, classes)) = &last_map {
+        let grid = GridSpec {
+            cells: h.cells as usize,
+            cell_m: h.cell_m,
+        };
+        let (s, c) = h.yaw.sin_cos();
+        let to_robot = |x: f64, y: f64| {
+            let (dx, dy) = (x - h.x, y - h.y);
+            (c * dx + s * dy, -s * dx + c * dy)
+        };
+        let mut img = render_map(
+            grid,
+            classes,
+            &[],
+            &Marks {
+                robot_radius_m: config.robot.radius_m,
+                goal: Some(to_robot(world.goal[0], world.goal[1])),
+            },
+        );
+        for w in path.windows(2) {
+            let (a, b) = (to_robot(w[0].0, w[0].1), to_robot(w[1].0, w[1].1));
+            img.line(
+                render::pixel(grid, a.0, a.1),
+                render::pixel(grid, b.0, b.1),
+                [0, 200, 255],
+            );
+        }
+        crate::snapshot::write_png(&args.out, &img)?;
+    }
+    latencies_ms.sort_by(f64::total_cmp);
+    println!(
+        "{}: {outcome} after {:.1} s simulated ({wall_s:.1} s wall); driven {:.2} m, straight line {:.2} m (ratio {:.2})",
+        world.name,
+        num("time_s"),
+        num("path_length_m"),
+        num("straight_m"),
+        num("path_length_m") / num("straight_m")
+    );
+    println!(
+        "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+        latencies_ms.len(),
+        percentile(&latencies_ms, 0.5),
+        percentile(&latencies_ms, 0.99),
+        latencies_ms.last().copied().unwrap_or(f64::NAN)
+    );
+    if last_map.is_some() {
+        println!(
+            "wrote {} (the last map, robot at the centre heading up, driven path in cyan)",
+            args.out.display()
+        );
+    } else {
+        println!("no map arrived: nothing written to {}", args.out.display());
+    }
+    if interrupted {
+        return Ok(ExitCode::from(130));
+    }
+    Ok(match (outcome.as_str(), status.success()) {
+        ("goal_reached", true) => ExitCode::SUCCESS,
+        _ => ExitCode::from(3),
+    })
+}
