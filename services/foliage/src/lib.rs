@@ -1,0 +1,1233 @@
+//! # mimnav-foliage — real-time foliage discrimination for a planar ladar scan
+//!
+//! A std-only implementation of the classifier of *"Foliage discrimination using a rotating
+//! ladar"* (`seeds/foliage-discrimination-rotating-ladar.txt`, the Urbie robot paper), as restated in
+//! `DESIGN.md` §8. Every return of a planar scan is classified as foliage or not; the returns that
+//! are not foliage and survive the pruning are *obstacles*, they raise the `alarm` flag and give the
+//! nearest obstacle range per sector (`R_s`).
+//!
+//! The paper's routine `CLASSIFY(A, R)` is the pipeline run by [`Classifier::classify`]:
+//!
+//! | paper routine            | function here             | output                                   |
+//! |--------------------------|---------------------------|------------------------------------------|
+//! | `FIND-LOW-FREQ`          | [`find_low_freq`]         | `v`, `dv`, `nad2v` per window            |
+//! | `GET-OBST-CANDIDATES`    | [`get_obst_candidates`]   | `R_c` (candidates), thresholds `T_k`     |
+//! | `RELAX-OBST`             | [`relax_obst`]            | `R_c` grown to smooth neighbours         |
+//! | `REMOVE-NEW-OBST`        | [`remove_new_obst`]       | `R_f` ⊆ `R_c` (seen in the last 2 scans) |
+//! | `REMOVE-THIN-OBST`       | [`remove_thin_obst`]      | `R_f` without isolated hits              |
+//! | `CROP-RANGE`             | [`crop_range`]            | `R_f` within `[d_min, d_max]`            |
+//! | `UPDATE-AND-ARCHIVE`     | [`update_and_archive`]    | `alarm`, `R_s`, evidence `C_k` archived  |
+//!
+//! The temporal state (thresholds `T_{k-1}`, `T_{k-2}` and evidence `C_{k-1}`, `C_{k-2}`, one value
+//! per angular window) lives in [`History`]. Windows are defined by absolute angle, so they are the
+//! same from one scan to the next: window `i = ⌊(angle + π) / α⌋`, `n_windows = ⌈2π / α⌉`.
+//!
+//! ## Input
+//!
+//! A scan is two slices, `angles` (radians, nominally in `(-π, π]`) and `ranges` (metres,
+//! `0` = no return), in firing order. The order of the angles does not matter for the windows (each
+//! return is binned by its own angle), so a clockwise sweep whose angles decrease is handled as well
+//! as an increasing one. The return neighbourhoods `r-2 … r+2` (`RELAX-OBST`) and the `W_s` window
+//! (`REMOVE-THIN-OBST`) follow the order in the slice and wrap around its ends.
+//!
+//! ## Interpretations
+//!
+//! The paper's pseudo-code is OCR-damaged. Where `DESIGN.md` marks an interpretation it is followed;
+//! the other readings chosen here are marked `// Interpretation:` next to the code. All of them:
+//!
+//! 1. **Threshold carry-over** (DESIGN): `T_k(i) = K1 + max(T_{k-1}(i), T_{k-2}(i)) / 2`
+//!    (`GET-OBST-CANDIDATES` lines 2–3). The archived `T_k` is the one *after* the raises made by this
+//!    scan's candidates, so windows near obstacles keep a higher threshold. The paper does not give
+//!    the initial thresholds; it says the robot starts in free space (§3), so [`Classifier::new`] and
+//!    [`Classifier::reset`] start from the free-space fixed point `T_{k-1} = T_{k-2} = 2·K1` of the
+//!    carry-over. Starting from zero would halve the first scan's threshold (`K1`): partly hidden or
+//!    noisy obstacles would then often yield no candidate on the first scan and, lacking evidence,
+//!    could not be confirmed on the second.
+//! 2. **Threshold raise** (DESIGN): a new candidate in window `i` raises `T_k(i±1)` by `δ/2` and
+//!    `T_k(i±2)` by `δ/4` (lines 13–15); its own window is not raised. The raise is applied once per
+//!    candidate *return*, as in the paper's per-return loop, so tied window maxima raise it more.
+//! 3. **Candidate condition** (DESIGN): return `r` in window `i` becomes a candidate when
+//!    `R(r) = v(i) > 0` and `nad2v(j) < T_k(j)` for every `j ∈ i-2 … i+2` (each window against its own
+//!    threshold; the paper's "`nad2v` is smaller than all the thresholds within a vicinity of 2",
+//!    read element by element, which keeps its "together with its four closest neighbours, it spans
+//!    a low frequency region"). All returns tied at the window maximum qualify. A consequence of
+//!    this reading: with a raise neighbourhood (`±2`) no wider than the test neighbourhood (`±2`), a
+//!    raise can never unblock a window within the same scan (the raised window's `nad2v` was
+//!    already below its threshold), so the paper's "repeat until nothing changes" loop reaches its
+//!    fixed point after one pass, which is how it is computed (proof in [`get_obst_candidates`],
+//!    checked against a literal transcription of the loop in the tests); the raises act on the
+//!    following scans through the carry-over.
+//! 4. **Wrap-around**: the paper loops `r = 3 … Ne-2` and `i = 1 … N_w-2`; here every window
+//!    neighbourhood (`i±1`, `i±2`, `dv`, `nad2v`) wraps around the circle and every return
+//!    neighbourhood wraps around the slice, so a full revolution has no seam at ±π. (For a partial
+//!    scan, e.g. a 270° SICK, the two ends of the slice become neighbours; `RELAX-OBST` only joins
+//!    them if their ranges agree, and the empty windows of the blind sector have `nad2v = 0`.)
+//! 5. **RELAX-OBST tolerance**: `T = C · (a·R(r) + b)` with `C = 1 + K2 · (C_{k-1}(i) + C_{k-2}(i))`,
+//!    where `r` is the non-candidate being evaluated and `i` its window (line 5–7); it is compared,
+//!    strictly, with `|R(r) − R(r+j)|` for a candidate neighbour `r+j`, `j ∈ {±1, ±2}`. A return
+//!    with no range never becomes a candidate. Run as a worklist; same fixed point as the passes.
+//! 6. **REMOVE-NEW-OBST neighbourhood**: a candidate in window `i` is kept when `C_{k-1}(j) > 0` or
+//!    `C_{k-2}(j) > 0` for some `j ∈ i-2 … i+2` (the OCR shows a product over five indices around
+//!    the return; the windows `i±2` match the neighbourhood of `GET-OBST-CANDIDATES`).
+//! 7. **REMOVE-THIN-OBST count**: a return survives when at least `O_s` of the `2⌊W_s/2⌋+1` returns
+//!    centred on it — itself included, as in the paper's `k = -d … d` loop — are obstacles, counted
+//!    on the copy taken before this routine (no cascade). If the scan is shorter than that window,
+//!    the whole scan is the window.
+//! 8. **CROP-RANGE** keeps the closed interval `[d_min, d_max]`.
+//! 9. **UPDATE-AND-ARCHIVE** (DESIGN): `C_k(i) = K3` where window `i` holds a candidate of `R_c`
+//!    (not the pruned `R_f`); `alarm` and `R_s` come from the pruned `R_f`. An empty sector reports
+//!    `f32::INFINITY` (the paper used 0).
+//! 10. **Forget rounding**: the bracket in line 16, `C_{k-1} − [(C_k + C_{k-1}) / 2]`, is read as a
+//!     ceiling. With exact halving the evidence of a vanished obstacle would never reach 0 (and
+//!     lines 17–18, "never below 0", would be dead code), contradicting the paper's "the evidence of
+//!     having seen it before has expired"; with a floor it would stall at 1. With the ceiling,
+//!     `K3 = 25` expires after 5 scans without the obstacle (25 → 12 → 6 → 3 → 1 → 0), and the
+//!     clamp at 0 is live for fractional values.
+//! 11. **Units**: ranges and `b` are metres (the paper's `b = 12.3` is millimetres); `a`, `K1`, `δ`
+//!     (`nad2v` is dimensionless), `K2` and `K3` are unit-free, so `K2·K3` keeps the paper's
+//!     relaxation gain.
+//! 12. **Order of pruning** is the paper's: `REMOVE-NEW` → `REMOVE-THIN` → `CROP-RANGE`, so obstacle
+//!     returns beyond `d_max` still count as neighbours in `REMOVE-THIN-OBST`.
+//! 13. **Input sanitation** (not in the paper): a range that is NaN, infinite, zero or negative, or a
+//!     return whose angle is not finite, is "no return". Angles outside `(-π, π]` are wrapped onto the
+//!     circle. If `angles` and `ranges` differ in length, only the first `min(len)` returns are used
+//!     (the classes slice has that length). An empty scan is a scan without returns: it advances the
+//!     temporal state (thresholds and evidence decay) and never alarms.
+//! 14. **Window count**: `n_windows = ⌈2π/α⌉`, except that a remainder smaller than 0.1 % of `α`
+//!     (rounding of `α` itself, e.g. `1°` in `f32`) does not create an extra sliver window; likewise
+//!     for sectors.
+//!
+//! ## Allocation and cost
+//!
+//! [`Classifier`] owns every buffer. The per-window buffers are allocated in [`Classifier::new`]; the
+//! per-return buffers grow on the first scan of a given size and are reused afterwards, so
+//! `classify()` does not allocate for scans no larger than one it has already seen. Every routine is
+//! `O(Ne + N_w)`: `GET-OBST-CANDIDATES`'s "repeat until nothing changes" loop provably ends after
+//! one pass, and `RELAX-OBST`'s is a worklist in which each return enters at most once. The
+//! per-return loops are written to keep data-dependent branches few (candidates and foliage
+//! interleave at random in grass, so such branches are mispredicted).
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+use std::f32::consts::{PI, TAU};
+
+/// Per-return classes reported in [`Verdict::classes`].
+pub mod class {
+    /// No usable return (range 0, negative, NaN or infinite, or a non-finite angle).
+    pub const NO_RETURN: u8 = 0;
+    /// A return that never became an obstacle candidate: foliage (drivable).
+    pub const FOLIAGE: u8 = 1;
+    /// A candidate that survived all pruning: a confirmed obstacle.
+    pub const OBSTACLE: u8 = 2;
+    /// A candidate removed by `REMOVE-NEW-OBST`, `REMOVE-THIN-OBST` or `CROP-RANGE`.
+    pub const PRUNED: u8 = 3;
+}
+
+/// Marker for a return that belongs to no window / sector (its angle is not finite).
+pub const NO_BIN: u32 = u32::MAX;
+
+// ---------------------------------------------------------------------------------------------
+// Parameters
+// ---------------------------------------------------------------------------------------------
+
+/// Parameters of the classifier.
+///
+/// Defaults are for one VLP-16 laser (1800 returns per turn, 0.2° spacing at 600 rpm, range noise
+/// about ±3 cm, 2 mm range resolution) on a Spot or a Turtlebot 2; the paper's values are for an
+/// Acuity AccuRange 4000 on the Urbie robot (512 returns per turn, 12.2 mrad spacing, error
+/// `0.015·d + 12.3 mm`, range of interest 0.3–2 m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FoliageParams {
+    /// `K1`, the constant part of the `GET-OBST-CANDIDATES` threshold on `nad2v`
+    /// (`T_k = K1 + max(T_{k-1}, T_{k-2}) / 2`, so the threshold settles at `2·K1` far from obstacles).
+    /// Paper: 0.025. Default: **0.02**. A window here holds 4 returns where the paper's illustration
+    /// has about 2; the maximum of more returns from a dense grass band sits closer to the band's
+    /// far edge, so the band looks smoother and needs a slightly tighter threshold (in the simulated
+    /// tests, 0.025 gave 3 alarms in 600 scans of a ±30–50 % grass band, 0.02 none, with nearly the
+    /// same trunk detection). Walls still pass: the max of 4 returns with 1–2 cm noise leaves a
+    /// second difference of about 1.7–3.4 cm, `nad2v` ≈ 0.017–0.034 at 1 m, against `2·K1 = 0.04`
+    /// plus the raises near obstacles; a wall with 2 cm noise is confirmed on the second scan from
+    /// 0.5 m to 3 m in the simulated tests.
+    pub k1: f32,
+    /// `δ`, the threshold raise given to the neighbouring windows of each new candidate
+    /// (`δ/2` at `i±1`, `δ/4` at `i±2`). Paper: 0.03. Default: **0.03** (kept; unit-free).
+    pub delta: f32,
+    /// `K2`, the gain of past evidence on the `RELAX-OBST` tolerance
+    /// (`C = 1 + K2·(C_{k-1} + C_{k-2})`). Paper: 0.05. Default: **0.05** (kept; with `K3 = 25` a
+    /// window seen in the last scans relaxes about 2.25×).
+    pub k2: f32,
+    /// `K3`, the evidence written for a window holding a candidate (`UPDATE-AND-ARCHIVE`).
+    /// Paper: 25. Default: **25** (kept; `K2·K3` is unit-free, and with the ceiling reading of the
+    /// forget step it expires 5 scans after the obstacle vanished, 0.5 s at 10 Hz).
+    pub k3: f32,
+    /// `a` of the range error model `a·d + b` (Eq. 1), used by `RELAX-OBST`. Paper: 0.015.
+    /// Default: **0.01**: the VLP-16 error is nearly constant with range; the slope only covers the
+    /// beam footprint and the range step between adjacent beams on oblique surfaces.
+    pub range_error_a: f32,
+    /// `b` of the range error model (Eq. 1), metres. Paper: 12.3 mm (0.0123 m).
+    /// Default: **0.03 m**, the VLP-16's specified accuracy (±3 cm).
+    pub range_error_b_m: f32,
+    /// `d_min`, metres: obstacles nearer are cropped (`CROP-RANGE`). Paper: 0.3 m.
+    /// Default: **0.3 m** (kept): near enough for either robot to still stop, far enough to skip
+    /// the sensor's own mount; raise it if the robot's mast, payload or arm appears in the scan.
+    pub d_min_m: f32,
+    /// `d_max`, metres: obstacles farther are cropped (`CROP-RANGE`). Paper: 2 m.
+    /// Default: **3 m**: Spot (up to 1.6 m/s) and the Turtlebot are faster than Urbie; 3 m is about
+    /// 2 s of travel for Spot. Beyond it the 7 windows `GET-OBST-CANDIDATES` needs (5.6°) are wider
+    /// than a 0.3 m trunk, and the error model no longer holds for grass-filtered returns; the
+    /// costmap, not this classifier, handles far obstacles.
+    pub d_max_m: f32,
+    /// `α`, the window of the max filter, radians. Paper: not given (its figure uses `α ≈ 2θ`, i.e.
+    /// about 24 mrad, ~2 returns). Default: **0.8° (4 beams, 13.96 mrad, 450 windows)**: larger than
+    /// the 0.2° beam spacing, so that one of the window's 4 beams likely slips through grass to a
+    /// hidden trunk, and small enough that the 7 consecutive windows `GET-OBST-CANDIDATES` needs to
+    /// be smooth (`nad2v(i-2 … i+2)` reaches `v(i-2 … i+4)`, 5.6°) fit on a 0.3 m trunk out to
+    /// `d_max` = 3 m and on a 10 cm post at 1 m. In the simulated tests 3 beams detected trunks in
+    /// grass less often and 5 beams lost a 10 cm post at 1.5 m and alarmed more on grass bands.
+    pub window_rad: f32,
+    /// Sector size for `R_s`, radians. Paper: not given (`N_s = Ω/α_s`). Default: **10°** (36
+    /// sectors), enough for a planner to slow down or steer by sector.
+    pub sector_rad: f32,
+    /// `W_s`, the number of returns (centred, wrapped) looked at by `REMOVE-THIN-OBST`; the window is
+    /// `2⌊W_s/2⌋+1` returns. Paper: not given (`W_s ≪ Ne`). Default: **9** returns (±0.8°, the
+    /// width of one window on each side).
+    pub thin_window: usize,
+    /// `O_s`, the minimum number of obstacle returns (itself included) in that window for an obstacle
+    /// return to survive. Paper: not given. Default: **3**: behind grass only 40–65 % of a trunk's
+    /// beams reach it and `RELAX-OBST` cannot bridge two missing returns in a row, so a partly
+    /// hidden obstacle shows as short runs; 3 of 9 keeps those and drops isolated hits and pairs
+    /// (4 of 9 lowered trunk detection in grass in the simulated tests).
+    pub thin_min: usize,
+}
+
+impl Default for FoliageParams {
+    fn default() -> Self {
+        Self {
+            k1: 0.02,
+            delta: 0.03,
+            k2: 0.05,
+            k3: 25.0,
+            range_error_a: 0.01,
+            range_error_b_m: 0.03,
+            d_min_m: 0.3,
+            d_max_m: 3.0,
+            window_rad: 0.8_f32.to_radians(),
+            sector_rad: 10.0_f32.to_radians(),
+            thin_window: 9,
+            thin_min: 3,
+        }
+    }
+}
+
+fn check(name: &str, value: f32, lo: f32, hi: f32, lo_open: bool) -> Result<(), String> {
+    let ok = value.is_finite() && (if lo_open { value > lo } else { value >= lo }) && value <= hi;
+    if ok {
+        Ok(())
+    } else {
+        let open = if lo_open { "(" } else { "[" };
+        Err(format!(
+            "FoliageParams.{name} = {value} is outside the allowed range {open}{lo}, {hi}]"
+        ))
+    }
+}
+
+impl FoliageParams {
+    /// Checks every field; the error names the field and its allowed range.
+    pub fn validate(&self) -> Result<(), String> {
+        check("k1", self.k1, 0.0, 10.0, false)?;
+        check("delta", self.delta, 0.0, 10.0, false)?;
+        check("k2", self.k2, 0.0, 10.0, false)?;
+        check("k3", self.k3, 0.0, 1.0e6, true)?;
+        check("range_error_a", self.range_error_a, 0.0, 1.0, false)?;
+        check("range_error_b_m", self.range_error_b_m, 0.0, 10.0, false)?;
+        check("d_min_m", self.d_min_m, 0.0, 1.0e4, false)?;
+        check("d_max_m", self.d_max_m, 0.0, 1.0e4, true)?;
+        if self.d_max_m <= self.d_min_m {
+            return Err(format!(
+                "FoliageParams.d_max_m = {} must be greater than d_min_m = {} (allowed range ({}, 10000])",
+                self.d_max_m, self.d_min_m, self.d_min_m
+            ));
+        }
+        // At least 8 windows so that the i±4 worklist neighbourhood never folds onto itself; at
+        // most ~63k windows to keep the per-window state small.
+        check("window_rad", self.window_rad, 1.0e-4, PI / 4.0, false)?;
+        check("sector_rad", self.sector_rad, 1.0e-3, TAU, false)?;
+        if self.thin_window == 0 || self.thin_window > 1001 {
+            return Err(format!(
+                "FoliageParams.thin_window = {} is outside the allowed range [1, 1001]",
+                self.thin_window
+            ));
+        }
+        let span = 2 * (self.thin_window / 2) + 1;
+        if self.thin_min == 0 || self.thin_min > span {
+            return Err(format!(
+                "FoliageParams.thin_min = {} is outside the allowed range [1, {span}] (2*floor(thin_window/2)+1)",
+                self.thin_min
+            ));
+        }
+        Ok(())
+    }
+
+    /// Number of angular windows, `⌈2π / α⌉` (see interpretation 14 in the crate docs).
+    pub fn n_windows(&self) -> usize {
+        bin_count(self.window_rad)
+    }
+
+    /// Number of sectors of `R_s`, `⌈2π / sector⌉` (`N_s = Ω / α_s` in the paper).
+    pub fn n_sectors(&self) -> usize {
+        bin_count(self.sector_rad)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Binning and input preparation
+// ---------------------------------------------------------------------------------------------
+
+/// Number of bins of width `bin_rad` that cover the circle: `⌈2π / bin_rad⌉`, at least 1.
+///
+/// Interpretation (14): a remainder below 0.1 % of a bin is rounding of `bin_rad`, not a sliver bin.
+/// Non-finite or non-positive widths give 1 bin.
+pub fn bin_count(bin_rad: f32) -> usize {
+    if !(bin_rad.is_finite() && bin_rad > 0.0) {
+        return 1;
+    }
+    let ratio = std::f64::consts::TAU / f64::from(bin_rad);
+    // Interpretation (14): a remainder below 0.1 % of a bin is rounding of `bin_rad`, not a bin.
+    let n = (ratio - 1.0e-3).ceil();
+    if n < 1.0 {
+        1
+    } else if n > 1.0e9 {
+        1_000_000_000
+    } else {
+        n as usize
+    }
+}
+
+/// Bin of an angle: `⌊(angle + π) / bin_rad⌋`, the angle first wrapped onto `[-π, π)` so that
+/// `π` and `-π` share bin 0. `None` for a non-finite angle or no bins.
+pub fn angle_bin(angle: f32, bin_rad: f32, n_bins: usize) -> Option<u32> {
+    if bin_rad.is_nan() || bin_rad <= 0.0 {
+        return None;
+    }
+    bin_with_inverse(angle, 1.0 / bin_rad, n_bins)
+}
+
+/// [`angle_bin`] with the reciprocal of the bin width precomputed (one multiply per return).
+#[inline]
+fn bin_with_inverse(angle: f32, inv_bin: f32, n_bins: usize) -> Option<u32> {
+    if !angle.is_finite() || n_bins == 0 || !(inv_bin.is_finite() && inv_bin > 0.0) {
+        return None;
+    }
+    let mut t = angle + PI;
+    if !(0.0..TAU).contains(&t) {
+        // Rare: only angles outside [-π, π) need the (slow, libm) remainder.
+        t = t.rem_euclid(TAU);
+    }
+    // t ≥ 0, so the cast floors; it saturates on overflow and the min() keeps it in range.
+    let idx = ((t * inv_bin) as usize).min(n_bins - 1);
+    Some(idx as u32)
+}
+
+/// A range as the classifier sees it: NaN, ±∞, 0 and negative values are "no return" (0).
+pub fn sanitize_range(range: f32) -> f32 {
+    if range.is_finite() && range > 0.0 {
+        range
+    } else {
+        0.0
+    }
+}
+
+/// A prepared scan: sanitized ranges and the window and sector of every return, all of length `Ne`.
+#[derive(Debug, Clone, Copy)]
+pub struct Scan<'a> {
+    /// `R(r)`, metres; 0 = no return.
+    pub ranges: &'a [f32],
+    /// Window of each return ([`NO_BIN`] when its angle is not finite).
+    pub windows: &'a [u32],
+    /// Sector of each return ([`NO_BIN`] when its angle is not finite).
+    pub sectors: &'a [u32],
+}
+
+impl Scan<'_> {
+    /// `Ne`, the number of returns (the shortest of the three slices).
+    pub fn len(&self) -> usize {
+        self.ranges
+            .len()
+            .min(self.windows.len())
+            .min(self.sectors.len())
+    }
+
+    /// True when the scan has no returns at all.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Fills the per-return buffers of a [`Scan`] from raw input (interpretation 13): uses the first
+/// `min(angles.len(), ranges.len())` returns, sanitizes the ranges, bins each return into its window
+/// and sector. The output vectors are cleared and refilled (no allocation once large enough).
+pub fn prepare_scan(
+    angles: &[f32],
+    ranges: &[f32],
+    params: &FoliageParams,
+    ranges_out: &mut Vec<f32>,
+    windows_out: &mut Vec<u32>,
+    sectors_out: &mut Vec<u32>,
+) {
+    let n = angles.len().min(ranges.len());
+    let (n_w, n_s) = (params.n_windows(), params.n_sectors());
+    let (inv_w, inv_s) = (1.0 / params.window_rad, 1.0 / params.sector_rad);
+    ranges_out.clear();
+    ranges_out.resize(n, 0.0);
+    windows_out.clear();
+    windows_out.resize(n, NO_BIN);
+    sectors_out.clear();
+    sectors_out.resize(n, NO_BIN);
+    let outs = ranges_out
+        .iter_mut()
+        .zip(windows_out.iter_mut())
+        .zip(sectors_out.iter_mut());
+    for ((&a, &r), ((ro, wo), so)) in angles[..n].iter().zip(&ranges[..n]).zip(outs) {
+        // Interpretation (13): a non-finite angle or range, or a range ≤ 0, is "no return".
+        if let (Some(w), Some(s)) = (
+            bin_with_inverse(a, inv_w, n_w),
+            bin_with_inverse(a, inv_s, n_s),
+        ) {
+            *ro = sanitize_range(r);
+            *wo = w;
+            *so = s;
+        }
+    }
+}
+
+/// `(i + d) mod n` for `n > 0` (every caller guarantees it); no division in the common case
+/// `|d| ≤ n`.
+// Interpretation (4): window and return neighbourhoods wrap (the paper stops 2 short of each end).
+#[inline]
+fn wrap(i: usize, d: isize, n: usize) -> usize {
+    let n = n as isize;
+    let j = i as isize + d;
+    if (0..n).contains(&j) {
+        j as usize
+    } else if (-n..0).contains(&j) {
+        (j + n) as usize
+    } else if (n..2 * n).contains(&j) {
+        (j - n) as usize
+    } else {
+        j.rem_euclid(n) as usize
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Temporal state
+// ---------------------------------------------------------------------------------------------
+
+/// The state carried from scan to scan, one value per window: thresholds `T_{k-1}`, `T_{k-2}`
+/// (`GET-OBST-CANDIDATES`) and evidence `C_{k-1}`, `C_{k-2}` (`RELAX-OBST`, `REMOVE-NEW-OBST`,
+/// `UPDATE-AND-ARCHIVE`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct History {
+    /// `T_{k-1}(i)`, the thresholds of the previous scan (after its raises).
+    pub t_prev1: Vec<f32>,
+    /// `T_{k-2}(i)`.
+    pub t_prev2: Vec<f32>,
+    /// `C_{k-1}(i)`, the evidence after the previous scan's update.
+    pub c_prev1: Vec<f32>,
+    /// `C_{k-2}(i)`.
+    pub c_prev2: Vec<f32>,
+}
+
+impl History {
+    /// All-zero state for `n_windows` windows.
+    pub fn new(n_windows: usize) -> Self {
+        Self {
+            t_prev1: vec![0.0; n_windows],
+            t_prev2: vec![0.0; n_windows],
+            c_prev1: vec![0.0; n_windows],
+            c_prev2: vec![0.0; n_windows],
+        }
+    }
+
+    /// Number of windows (the shortest of the four arrays).
+    pub fn n_windows(&self) -> usize {
+        self.t_prev1
+            .len()
+            .min(self.t_prev2.len())
+            .min(self.c_prev1.len())
+            .min(self.c_prev2.len())
+    }
+
+    /// The state of a robot that has been in free space for a long time (interpretation 1): no
+    /// evidence, and both previous thresholds at the fixed point `2·K1` of the carry-over
+    /// `T = K1 + T/2`. This is what [`Classifier::new`] and [`Classifier::reset`] start from.
+    // Interpretation (1): the paper gives no initial thresholds; it starts the robot in free space.
+    pub fn free_space(n_windows: usize, k1: f32) -> Self {
+        let mut h = Self::new(n_windows);
+        h.reset_free_space(k1);
+        h
+    }
+
+    /// Forgets everything (all thresholds and evidence back to 0), keeping the allocation.
+    pub fn reset(&mut self) {
+        self.t_prev1.fill(0.0);
+        self.t_prev2.fill(0.0);
+        self.c_prev1.fill(0.0);
+        self.c_prev2.fill(0.0);
+    }
+
+    /// Back to [`History::free_space`]: evidence 0, thresholds `2·K1`; keeps the allocation.
+    pub fn reset_free_space(&mut self, k1: f32) {
+        self.reset();
+        self.t_prev1.fill(2.0 * k1);
+        self.t_prev2.fill(2.0 * k1);
+    }
+
+    /// Archives this scan's thresholds: `T_{k-2} ← T_{k-1}`, `T_{k-1} ← T_k`. `t_k` receives the old
+    /// `T_{k-2}` buffer (to be overwritten next scan); no copy, no allocation.
+    pub fn archive_thresholds(&mut self, t_k: &mut Vec<f32>) {
+        std::mem::swap(&mut self.t_prev2, &mut self.t_prev1);
+        std::mem::swap(&mut self.t_prev1, t_k);
+    }
+
+    /// `true` when window `i` or one of `i±1`, `i±2` (wrapped) has non-zero evidence in `C_{k-1}` or
+    /// `C_{k-2}` — the test of `REMOVE-NEW-OBST` (interpretation 6).
+    pub fn seen_near(&self, i: usize) -> bool {
+        let n = self.n_windows();
+        if n == 0 {
+            return false;
+        }
+        let nz = |j: usize| self.c_prev1[j] > 0.0 || self.c_prev2[j] > 0.0;
+        if i >= 2 && i + 2 < n {
+            (i - 2..=i + 2).any(nz)
+        } else {
+            (-2..=2).any(|d| nz(wrap(i, d, n)))
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// FIND-LOW-FREQ
+// ---------------------------------------------------------------------------------------------
+
+/// Output of [`find_low_freq`], one value per window.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LowFreq {
+    /// `v(i)`, the largest range in window `i` (0 when it has no return).
+    pub v: Vec<f32>,
+    /// `dv(i) = v(i+1) − v(i)` (wrapped).
+    pub dv: Vec<f32>,
+    /// `nad2v(i) = |dv(i+1) − dv(i)| / v(i)`, 0 where `v(i) = 0`.
+    pub nad2v: Vec<f32>,
+}
+
+/// `FIND-LOW-FREQ(A, R)` (paper §4.1, lines 1–13): max filter of the ranges over non-overlapping
+/// angular windows of `α` (lines 1–5), forward difference `dv` (lines 6–7), and the normalised
+/// absolute second difference `nad2v` (lines 8–12).
+///
+/// `n_windows` sets the length of the outputs; returns whose window is `≥ n_windows` are ignored.
+/// Interpretation (4): differences wrap around the circle (`v(N_w) ≡ v(0)`).
+pub fn find_low_freq(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
+    out.v.clear();
+    out.v.resize(n_windows, 0.0);
+    out.dv.clear();
+    out.dv.resize(n_windows, 0.0);
+    out.nad2v.clear();
+    out.nad2v.resize(n_windows, 0.0);
+    if n_windows == 0 {
+        return;
+    }
+    // Max filter (lines 2–5). Consecutive returns mostly share a window: keep the running maximum
+    // in a register and write it back when the window changes.
+    let ne = scan.len();
+    let (mut cur_w, mut cur_max) = (NO_BIN, 0.0f32);
+    for (&range, &w) in scan.ranges[..ne].iter().zip(&scan.windows[..ne]) {
+        if w != cur_w {
+            if let Some(v) = out.v.get_mut(cur_w as usize)
+                && cur_max > *v
+            {
+                *v = cur_max;
+            }
+            cur_w = w;
+            cur_max = 0.0;
+        }
+        if range > cur_max {
+            cur_max = range;
+        }
+    }
+    if let Some(v) = out.v.get_mut(cur_w as usize)
+        && cur_max > *v
+    {
+        *v = cur_max;
+    }
+    for i in 0..n_windows {
+        out.dv[i] = out.v[wrap(i, 1, n_windows)] - out.v[i];
+    }
+    for i in 0..n_windows {
+        let v = out.v[i];
+        out.nad2v[i] = if v == 0.0 {
+            0.0
+        } else {
+            (out.dv[wrap(i, 1, n_windows)] - out.dv[i]).abs() / v
+        };
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// GET-OBST-CANDIDATES
+// ---------------------------------------------------------------------------------------------
+
+/// `T_k(i) = K1 + max(T_{k-1}(i), T_{k-2}(i)) / 2` (`GET-OBST-CANDIDATES` lines 2–3,
+/// interpretation 1).
+// Interpretation (1, DESIGN): thresholds carry over from the two previous scans.
+pub fn carry_threshold(k1: f32, t_prev1: f32, t_prev2: f32) -> f32 {
+    k1 + t_prev1.max(t_prev2) / 2.0
+}
+
+/// Reusable scratch of [`get_obst_candidates`] (per window). Allocates only when the window count
+/// grows.
+#[derive(Debug, Clone, Default)]
+pub struct WindowWork {
+    ties: Vec<u32>,
+    pass: Vec<bool>,
+}
+
+impl WindowWork {
+    /// Scratch pre-sized for `n_windows` windows.
+    pub fn with_windows(n_windows: usize) -> Self {
+        Self {
+            ties: Vec::with_capacity(n_windows),
+            pass: Vec::with_capacity(n_windows),
+        }
+    }
+}
+
+/// `GET-OBST-CANDIDATES(A, R, v, nad2v)` (paper §4.2). Writes the thresholds `T_k` of this scan into
+/// `t_k` (one per window of `low`) and the candidates into `rc` (`R_c(r) = R(r)` for a candidate, 0
+/// otherwise; resized to `Ne`). Returns the number of candidates.
+///
+/// * `T_k(i) = K1 + max(T_{k-1}(i), T_{k-2}(i)) / 2` (lines 2–3, interpretation 1).
+/// * A return `r` of window `i` becomes a candidate when it is the window maximum
+///   (`R(r) = v(i) > 0`, fast rejection of line 9) and `nad2v(j) < T_k(j)` for all `j ∈ i-2 … i+2`
+///   (update condition of line 11, interpretation 3).
+/// * Each new candidate raises `T_k(i±1)` by `δ/2` and `T_k(i±2)` by `δ/4` (lines 13–15,
+///   interpretation 2).
+///
+/// **The "repeat until done" loop (lines 4–18) in one pass.** Thresholds only grow, so the paper's
+/// repeated passes reach the least fixed point, and that fixed point is the set of windows that
+/// pass with the thresholds at entry: a window `m` with `nad2v(m) ≥ T_k(m)` blocks every window
+/// within 2 of it, and its threshold could only be raised by a candidate within 2 of `m` — whose
+/// own condition requires `nad2v(m) < T_k(m)`, so the first such raise can never happen. Hence one
+/// linear pass over the windows (a rolling count of blocking windows in `i-2 … i+2`), then the
+/// raises, gives exactly the paper's candidates and final thresholds, in `O(Ne + N_w)`. (The unit
+/// tests check this against a literal transcription of the paper's loop.)
+pub fn get_obst_candidates(
+    params: &FoliageParams,
+    scan: Scan<'_>,
+    low: &LowFreq,
+    history: &History,
+    t_k: &mut Vec<f32>,
+    rc: &mut Vec<f32>,
+    work: &mut WindowWork,
+) -> usize {
+    let n_w = low.v.len().min(low.nad2v.len());
+    let ne = scan.len();
+    rc.clear();
+    rc.resize(ne, 0.0);
+    t_k.clear();
+    for i in 0..n_w {
+        let t1 = history.t_prev1.get(i).copied().unwrap_or(0.0);
+        let t2 = history.t_prev2.get(i).copied().unwrap_or(0.0);
+        t_k.push(carry_threshold(params.k1, t1, t2));
+    }
+    if n_w == 0 {
+        return 0;
+    }
+    let WindowWork { ties, pass } = work;
+    ties.clear();
+    ties.resize(n_w, 0);
+    pass.clear();
+    pass.resize(n_w, false);
+
+    // Fast rejection (line 9): only non-zero returns at their window's maximum can qualify; count
+    // them per window (ties included). Consecutive returns mostly share a window, so the count of
+    // the current run stays in a register.
+    let (mut cur_w, mut cur_n) = (usize::MAX, 0u32);
+    for (&range, &w) in scan.ranges[..ne].iter().zip(&scan.windows[..ne]) {
+        let w = w as usize;
+        if w != cur_w {
+            if let Some(t) = ties.get_mut(cur_w) {
+                *t += cur_n;
+            }
+            (cur_w, cur_n) = (w, 0);
+        }
+        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
+        cur_n += u32::from(range > 0.0 && range == v);
+    }
+    if let Some(t) = ties.get_mut(cur_w) {
+        *t += cur_n;
+    }
+
+    // Update condition (line 11). Interpretation (3): nad2v(j) < T_k(j) for each j in i-2..=i+2,
+    // evaluated on the thresholds at entry (see the fixed-point argument above).
+    // A NaN nad2v (overflowing ranges) blocks, like any value not below the threshold.
+    let below = |j: usize| low.nad2v[j] < t_k[j];
+    let blocked = |j: usize| usize::from(!below(j));
+    let mut n_blocked: usize = (-2..=2).map(|d| blocked(wrap(0, d, n_w))).sum();
+    for i in 0..n_w {
+        pass[i] = ties[i] > 0 && n_blocked == 0;
+        n_blocked -= blocked(wrap(i, -2, n_w));
+        n_blocked += blocked(wrap(i, 3, n_w));
+    }
+    // Interpretation (2, DESIGN): δ/2 at i±1, δ/4 at i±2, per candidate return, own window not raised.
+    let (half, quarter) = (params.delta / 2.0, params.delta / 4.0);
+    for i in 0..n_w {
+        if pass[i] {
+            let k = ties[i] as f32;
+            for (d, raise) in [(-2, quarter), (-1, half), (1, half), (2, quarter)] {
+                t_k[wrap(i, d, n_w)] += raise * k;
+            }
+        }
+    }
+
+    let mut count = 0;
+    for ((slot, &range), &w) in rc
+        .iter_mut()
+        .zip(&scan.ranges[..ne])
+        .zip(&scan.windows[..ne])
+    {
+        let w = w as usize;
+        let ok = pass.get(w).copied().unwrap_or(false);
+        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
+        let is_candidate = ok & (range > 0.0) & (range == v);
+        *slot = if is_candidate { range } else { 0.0 };
+        count += usize::from(is_candidate);
+    }
+    count
+}
+
+// ---------------------------------------------------------------------------------------------
+// RELAX-OBST
+// ---------------------------------------------------------------------------------------------
+
+/// Tolerance of `RELAX-OBST` (lines 5–7): `T = C · (a·R + b)` with `C = 1 + K2 · (C_{k-1} + C_{k-2})`
+/// and `a·R + b` the range error model of Eq. 1.
+// Interpretation (5, 11): evaluated at the non-candidate's range and window; b in metres.
+pub fn relax_tolerance(params: &FoliageParams, range: f32, c_prev1: f32, c_prev2: f32) -> f32 {
+    let c = 1.0 + params.k2 * (c_prev1 + c_prev2);
+    c * (params.range_error_a * range + params.range_error_b_m)
+}
+
+/// Reusable scratch of [`relax_obst`] (per return). Allocates only when the scan grows.
+#[derive(Debug, Clone, Default)]
+pub struct RelaxWork {
+    stack: Vec<u32>,
+    can_join: Vec<u8>,
+}
+
+/// Neighbour offsets of `RELAX-OBST`; bit `k` of a return's `can_join` mask is offset `OFFSETS[k]`.
+const OFFSETS: [isize; 4] = [-2, -1, 1, 2];
+
+/// `RELAX-OBST(A, R, R_c)` (paper §4.3): a non-candidate return `r` with a range becomes a candidate
+/// when one of its neighbours `r±1`, `r±2` (slice order, wrapped) is a candidate and
+/// `|R(r) − R(r+j)| < T`, [`relax_tolerance`] evaluated at `R(r)` and at the evidence of `r`'s window
+/// (lines 8–9, interpretation 5).
+///
+/// The range test does not depend on the candidates, so it is done first for every return and its 4
+/// neighbours (a 4-bit mask, a straight pass). The "repeat until done" loop (lines 2–10) is then one
+/// forward and one backward sweep, which follow smooth surfaces, and a worklist that finishes the
+/// closure from the few candidates whose neighbours the sweeps could not revisit. Each return enters
+/// the worklist at most once: `O(Ne)` in all, and the same fixed point as the paper's passes (the
+/// tests check it against a literal transcription). Returns the number of returns added to `rc`.
+pub fn relax_obst(
+    params: &FoliageParams,
+    scan: Scan<'_>,
+    history: &History,
+    rc: &mut [f32],
+    work: &mut RelaxWork,
+) -> usize {
+    let ne = scan.len().min(rc.len());
+    let RelaxWork { stack, can_join } = work;
+    stack.clear();
+    can_join.clear();
+    if ne == 0 {
+        return 0;
+    }
+    let (ranges, windows, rc) = (&scan.ranges[..ne], &scan.windows[..ne], &mut rc[..ne]);
+    let n_h = history.n_windows();
+    let (c_prev1, c_prev2) = (&history.c_prev1[..n_h], &history.c_prev2[..n_h]);
+
+    // can_join[r] bit k: r, if it has a range, would join a candidate at r + OFFSETS[k].
+    can_join.resize(ne, 0);
+    for (r, mask) in can_join.iter_mut().enumerate() {
+        let (range, w) = (ranges[r], windows[r] as usize);
+        let (c1, c2) = if w < n_h {
+            (c_prev1[w], c_prev2[w])
+        } else {
+            (0.0, 0.0)
+        };
+        let tol = relax_tolerance(params, range, c1, c2);
+        let valid = (range > 0.0) & (windows[r] != NO_BIN);
+        let mut m = 0u8;
+        for (k, d) in OFFSETS.into_iter().enumerate() {
+            let n = if r >= 2 && r + 2 < ne {
+                (r as isize + d) as usize
+            } else {
+                wrap(r, d, ne)
+            };
+            // Interpretation (5): strict comparison, tolerance of the joining return r.
+            m |= u8::from((range - ranges[n]).abs() < tol) << k;
+        }
+        *mask = if valid { m } else { 0 };
+    }
+
+    // The worklist is a stack of exactly Ne slots: a return is pushed at most once, so `top` never
+    // passes Ne. Pushes are unconditional writes with a conditional `top += 1`.
+    stack.resize(ne, 0);
+    let mut top = 0;
+    let mut added = 0;
+    let bit = |m: u8, k: usize| (m >> k) & 1 != 0;
+    if ne < 8 {
+        // Tiny scan: every candidate seeds the worklist.
+        for (r, &c) in rc.iter().enumerate() {
+            stack[top] = r as u32; // top ≤ r < ne
+            top += usize::from(c > 0.0);
+        }
+    } else {
+        // Two sweeps do most of the work along smooth surfaces: forward (joins from r-1, r-2),
+        // then backward (joins from r+1, r+2). Afterwards every candidate has had its four
+        // neighbours examined after it became a candidate, except those added by the backward
+        // sweep (their forward neighbours were visited before) and those the forward sweep added
+        // at the last two places (their wrapped forward neighbours were visited first): these
+        // seed the worklist, which completes the closure exactly.
+        let (mut p2, mut p1) = (rc[ne - 2] > 0.0, rc[ne - 1] > 0.0);
+        for r in 0..ne {
+            let (was, m) = (rc[r] > 0.0, can_join[r]);
+            let join = !was & ((p1 & bit(m, 1)) | (p2 & bit(m, 0)));
+            if join {
+                rc[r] = ranges[r];
+            }
+            added += usize::from(join);
+            (p2, p1) = (p1, was | join);
+        }
+        for r in [ne - 2, ne - 1] {
+            stack[top] = r as u32;
+            top += usize::from(rc[r] > 0.0);
+        }
+        let (mut n2, mut n1) = (rc[1] > 0.0, rc[0] > 0.0);
+        for r in (0..ne).rev() {
+            let (was, m) = (rc[r] > 0.0, can_join[r]);
+            let join = !was & ((n1 & bit(m, 2)) | (n2 & bit(m, 3)));
+            if join {
+                rc[r] = ranges[r];
+            }
+            added += usize::from(join);
+            if let Some(slot) = stack.get_mut(top) {
+                *slot = r as u32;
+            }
+            top += usize::from(join);
+            (n2, n1) = (n1, was | join);
+        }
+    }
+    while top > 0 {
+        top -= 1;
+        let c = stack[top] as usize;
+        for (k, d) in OFFSETS.into_iter().enumerate() {
+            let r = if c >= 2 && c + 2 < ne {
+                (c as isize + d) as usize
+            } else {
+                wrap(c, d, ne)
+            };
+            // r sees c at offset -d, i.e. bit 3 - k of its mask.
+            let join = (rc[r] == 0.0) & bit(can_join[r], 3 - k);
+            if join {
+                rc[r] = ranges[r];
+            }
+            if let Some(slot) = stack.get_mut(top) {
+                *slot = r as u32;
+            }
+            top += usize::from(join);
+            added += usize::from(join);
+        }
+    }
+    stack.clear();
+    added
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pruning: REMOVE-NEW-OBST, REMOVE-THIN-OBST, CROP-RANGE
+// ---------------------------------------------------------------------------------------------
+
+/// `REMOVE-NEW-OBST(A, R_c)` (paper §5, lines 1–7): `R_f(r) = R_c(r)` when the evidence of the last
+/// two scans is non-zero somewhere in windows `i-2 … i+2` around the return's window `i`
+/// ([`History::seen_near`], interpretation 6), else 0. An obstacle must have been seen in one of the
+/// last two scans. `rf` is resized to `Ne`.
+pub fn remove_new_obst(scan: Scan<'_>, history: &History, rc: &[f32], rf: &mut Vec<f32>) {
+    let ne = scan.len().min(rc.len());
+    rf.clear();
+    rf.resize(ne, 0.0);
+    // Consecutive returns mostly share a window: remember the last answer.
+    // Interpretation (6): "seen" = non-zero C_{k-1} or C_{k-2} in windows i-2..=i+2.
+    let mut last = (NO_BIN, false);
+    for ((f, &c), &w) in rf.iter_mut().zip(&rc[..ne]).zip(&scan.windows[..ne]) {
+        if last.0 != w {
+            last = (w, w != NO_BIN && history.seen_near(w as usize));
+        }
+        let keep = last.1 & (c > 0.0);
+        *f = if keep { c } else { 0.0 };
+    }
+}
+
+/// `REMOVE-THIN-OBST(R_f, W_s, O_s)` (paper §5): with `d = ⌊W_s/2⌋`, an obstacle return is dropped
+/// when fewer than `O_s` of the returns `r-d … r+d` (slice order, wrapped, itself included) are
+/// obstacles in the copy of `R_f` taken on entry (interpretation 7). Sliding count, `O(Ne)`.
+/// `copy` is scratch. Returns the number of returns dropped.
+pub fn remove_thin_obst(rf: &mut [f32], w_s: usize, o_s: usize, copy: &mut Vec<f32>) -> usize {
+    let ne = rf.len();
+    if ne == 0 {
+        return 0;
+    }
+    copy.clear();
+    copy.extend_from_slice(rf);
+    let d = w_s / 2;
+    let span = 2 * d + 1;
+    // Interpretation (7): the count includes the return itself and reads the entry copy.
+    let is = |x: f32| usize::from(x > 0.0);
+    let mut dropped = 0;
+    if span >= ne {
+        let total: usize = copy.iter().map(|&x| is(x)).sum();
+        if total < o_s {
+            for x in rf.iter_mut().filter(|x| **x > 0.0) {
+                *x = 0.0;
+                dropped += 1;
+            }
+        }
+        return dropped;
+    }
+    let di = d as isize;
+    let mut count: usize = (-di..=di).map(|k| is(copy[wrap(0, k, ne)])).sum();
+    for r in 0..ne {
+        // (Branch-free: obstacle and foliage returns interleave at random.)
+        let drop = (copy[r] > 0.0) & (count < o_s);
+        rf[r] = if drop { 0.0 } else { rf[r] };
+        dropped += usize::from(drop);
+        // Slide the window from r to r+1.
+        count -= is(copy[wrap(r, -di, ne)]);
+        count += is(copy[wrap(r, di + 1, ne)]);
+    }
+    dropped
+}
+
+/// `CROP-RANGE(R_f, d_min, d_max)` (paper §5): drops obstacle returns outside `[d_min, d_max]`
+/// (interpretation 8), where the error model of Eq. 1 holds. Returns the number dropped.
+pub fn crop_range(rf: &mut [f32], d_min: f32, d_max: f32) -> usize {
+    let mut dropped = 0;
+    for x in rf.iter_mut() {
+        // Interpretation (8): the closed interval [d_min, d_max] is kept.
+        let drop = (*x > 0.0) & !(*x >= d_min && *x <= d_max);
+        *x = if drop { 0.0 } else { *x };
+        dropped += usize::from(drop);
+    }
+    dropped
+}
+
+// ---------------------------------------------------------------------------------------------
+// UPDATE-AND-ARCHIVE
+// ---------------------------------------------------------------------------------------------
+
+/// One window's evidence update (`UPDATE-AND-ARCHIVE` lines 12–18): returns the new `C_{k-1}`
+/// from this scan's `C_k` and the previous `C_{k-1}`.
+///
+/// * `C_k > C_{k-1}`: `C_k + C_{k-1}` — learn fast;
+/// * otherwise `C_{k-1} − ⌈(C_k + C_{k-1}) / 2⌉` — forget slowly (interpretation 10: the bracket is
+///   a ceiling, so the evidence reaches 0 after a finite number of scans);
+/// * never below 0.
+pub fn evidence_step(c_k: f32, c_prev1: f32) -> f32 {
+    let learn = c_k + c_prev1;
+    // Interpretation (10): the bracket of line 16 is a ceiling, so old evidence expires.
+    let forget = c_prev1 - ceil_non_negative((c_k + c_prev1) / 2.0);
+    let forget = if forget > 0.0 { forget } else { 0.0 };
+    if c_k > c_prev1 { learn } else { forget }
+}
+
+/// `x.ceil()` without the libm call for `0 ≤ x < 2²³` (evidence values); other inputs use `ceil`.
+#[inline]
+fn ceil_non_negative(x: f32) -> f32 {
+    if !(0.0..8_388_608.0).contains(&x) {
+        return x.ceil();
+    }
+    let t = (x as u32) as f32; // truncation of a non-negative value
+    if t < x { t + 1.0 } else { t }
+}
+
+/// `UPDATE-AND-ARCHIVE(A, R_c)` (paper §6).
+///
+/// * `C_k(i) = K3` in every window holding a candidate of `rc` (lines 4–7; from `R_c`, not `R_f`, so
+///   pruning lowers the alarms without forgetting the obstacle — interpretation 9); `c_k` is resized
+///   to the window count of `history`.
+/// * `nearest[s]` = the smallest `R_f` range in sector `s`, `f32::INFINITY` if none (lines 8–9, from
+///   the pruned `rf`).
+/// * returns `alarm` = any obstacle left in `rf` (line 10, interpretation 9).
+/// * archives the evidence: `C_{k-2} ← C_{k-1}`, then `C_{k-1} ← evidence_step(C_k, C_{k-1})`
+///   (lines 11–18).
+pub fn update_and_archive(
+    params: &FoliageParams,
+    scan: Scan<'_>,
+    rc: &[f32],
+    rf: &[f32],
+    history: &mut History,
+    c_k: &mut Vec<f32>,
+    nearest: &mut [f32],
+) -> bool {
+    let n_w = history.n_windows();
+    c_k.clear();
+    c_k.resize(n_w, 0.0);
+    nearest.fill(f32::INFINITY);
+    let mut alarm = false;
+    let ne = scan.len().min(rc.len());
+    // Interpretation (9, DESIGN): C_k from R_c; alarm and R_s from the pruned R_f. Consecutive
+    // returns mostly share a window and a sector: the current run's flag and minimum stay in
+    // registers.
+    let (mut cur_w, mut cur_cand) = (NO_BIN, false);
+    // The running minimum is kept on integer keys, `bits(R_f) − 1` (wrapping): the bits of
+    // non-negative floats are ordered like the floats, and a non-obstacle (0.0) wraps to the
+    // largest key, so no select is needed per return (the compiler turns selects into branches,
+    // mispredicted where obstacles and foliage interleave).
+    let key_to_range = |key: u32| {
+        let bits = key.wrapping_add(1);
+        if bits > 0 && bits < f32::INFINITY.to_bits() {
+            f32::from_bits(bits)
+        } else {
+            f32::INFINITY
+        }
+    };
+    let (mut cur_s, mut cur_min) = (NO_BIN, u32::MAX);
+    let per_return = rc[..ne]
+        .iter()
+        .zip(&scan.windows[..ne])
+        .zip(&scan.sectors[..ne])
+        .enumerate();
+    for (r, ((&c, &w), &sector)) in per_return {
+        if w != cur_w {
+            if let Some(ck) = c_k.get_mut(cur_w as usize) {
+                *ck = if cur_cand { params.k3 } else { *ck };
+            }
+            (cur_w, cur_cand) = (w, false);
+        }
+        cur_cand |= c > 0.0;
+        if sector != cur_s {
+            if let Some(s) = nearest.get_mut(cur_s as usize) {
+                *s = s.min(key_to_range(cur_min));
+            }
+            (cur_s, cur_min) = (sector, u32::MAX);
+        }
+        let f = rf.get(r).copied().unwrap_or(0.0);
+        let obstacle = f > 0.0;
+        alarm |= obstacle;
+        cur_min = cur_min.min(f.to_bits().wrapping_sub(1));
+    }
+    if cur_cand && let Some(ck) = c_k.get_mut(cur_w as usize) {
+        *ck = params.k3;
+    }
+    if let Some(s) = nearest.get_mut(cur_s as usize) {
+        *s = s.min(key_to_range(cur_min));
+    }
+    let History {
+        c_prev1, c_prev2, ..
+    } = history;
+    c_prev2[..n_w].copy_from_slice(&c_prev1[..n_w]);
+    for (c1, &ck) in c_prev1[..n_w].iter_mut().zip(c_k.iter()) {
+        *c1 = evidence_step(ck, *c1);
+    }
+    alarm
+}
+
+// ---------------------------------------------------------------------------------------------
+// Classifier
+// ---------------------------------------------------------------------------------------------
+
+/// Result of one [`Classifier::classify`] call; borrows the classifier's buffers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict<'a> {
+    /// `alarm`: at least one confirmed obstacle return in `[d_min, d_max]`.
+    pub alarm: bool,
+    /// `R_s`: nearest confirmed obstacle range per sector (sector `s` covers angles
+    /// `[-π + s·sector, -π + (s+1)·sector)`), `f32::INFINITY` where none.
+    pub nearest_per_sector: &'a [f32],
+    /// Class of every return ([`class`]), in input order; length `min(angles.len(), ranges.len())`.
+    pub classes: &'a [u8],
+    /// Returns classed [`class::OBSTACLE`].
+    pub obstacle_count: usize,
+    /// Returns that were candidates (`R_c`, after `RELAX-OBST`): `OBSTACLE` + `PRUNED`.
+    pub candidate_count: usize,
+}
+
+/// The foliage classifier: parameters, temporal state and every working buffer.
+#[derive(Debug, Clone)]
+pub struct Classifier {
+    params: FoliageParams,
+    n_windows: usize,
+    history: History,
+    low: LowFreq,
+    t_k: Vec<f32>,
+    c_k: Vec<f32>,
+    work: WindowWork,
+    ranges: Vec<f32>,
+    windows: Vec<u32>,
+    sectors: Vec<u32>,
+    rc: Vec<f32>,
+    rf: Vec<f32>,
+    thin_copy: Vec<f32>,
+    relax_work: RelaxWork,
+    classes: Vec<u8>,
+    nearest: Vec<f32>,
+}
+
+impl Classifier {
+    /// A classifier with zeroed temporal state; fails if [`FoliageParams::validate`] does.
+    pub fn new(params: FoliageParams) -> Result<Self, String> {
+        params.validate()?;
+        let n_w = params.n_windows();
+        let n_s = params.n_sectors();
+        Ok(Self {
+            params,
+            n_windows: n_w,
+            history: History::free_space(n_w, params.k1),
+            low: LowFreq {
+                v: Vec::with_capacity(n_w),
+                dv: Vec::with_capacity(n_w),
+                nad2v: Vec::with_capacity(n_w),
+            },
+            t_k: Vec::with_capacity(n_w),
+            c_k: Vec::with_capacity(n_w),
+            work: WindowWork::with_windows(n_w),
+            ranges: Vec::new(),
+            windows: Vec::new(),
+            sectors: Vec::new(),
+            rc: Vec::new(),
+            rf: Vec::new(),
+            thin_copy: Vec::new(),
+            relax_work: RelaxWork::default(),
+            classes: Vec::new(),
+            nearest: vec![f32::INFINITY; n_s],
+        })
+    }
+
+    /// Classifies one scan (`CLASSIFY(A, R)`) and advances the temporal state.
+    ///
+    /// `angles[r]` (radians) and `ranges[r]` (metres, 0 = no return) describe return `r` in firing
+    /// order. If the slices differ in length only the first `min` returns are used. Never panics:
+    /// non-finite, zero or negative ranges and non-finite angles are "no return"; an empty scan is a
+    /// scan without returns (see interpretation 13).
+    pub fn classify(&mut self, angles: &[f32], ranges: &[f32]) -> Verdict<'_> {
+        let p = self.params;
+        prepare_scan(
+            angles,
+            ranges,
+            &p,
+            &mut self.ranges,
+            &mut self.windows,
+            &mut self.sectors,
+        );
+        let scan = Scan {
+            ranges: &self.ranges,
+            windows: &self.windows,
+            sectors: &self.sectors,
+        };
+        let ne = scan.len();
+
+        find_low_freq(scan, self.n_windows, &mut self.low);
+        get_obst_candidates(
+            &p,
+            scan,
+            &self.low,
+            &self.history,
+            &mut self.t_k,
+            &mut self.rc,
+            &mut self.work,
+        );
+        self.history.archive_thresholds(&mut self.t_k);
+        relax_obst(&p, scan, &self.history, &mut self.rc, &mut self.relax_work);
+        // Interpretation (12): the paper's pruning order, REMOVE-NEW → REMOVE-THIN → CROP-RANGE.
+        remove_new_obst(scan, &self.history, &self.rc, &mut self.rf);
+        remove_thin_obst(&mut self.rf, p.thin_window, p.thin_min, &mut self.thin_copy);
+        crop_range(&mut self.rf, p.d_min_m, p.d_max_m);
+        let alarm = update_and_archive(
+            &p,
+            scan,
+            &self.rc,
+            &self.rf,
+            &mut self.history,
+            &mut self.c_k,
+            &mut self.nearest,
+        );
+
+        self.classes.clear();
+        let (mut obstacles, mut candidates) = (0, 0);
+        for ((&f, &cand), &range) in self.rf[..ne]
+            .iter()
+            .zip(&self.rc[..ne])
+            .zip(&self.ranges[..ne])
+        {
+            // (Branch-free: the classes interleave at random.) R_f ⊆ R_c ⊆ {R > 0}.
+            let (is_obstacle, is_candidate) = (f > 0.0, cand > 0.0);
+            obstacles += usize::from(is_obstacle);
+            candidates += usize::from(is_candidate);
+            let mut c = if range > 0.0 {
+                class::FOLIAGE
+            } else {
+                class::NO_RETURN
+            };
+            c = if is_candidate { class::PRUNED } else { c };
+            c = if is_obstacle { class::OBSTACLE } else { c };
+            self.classes.push(c);
+        }
+        Verdict {
+            alarm,
+            nearest_per_sector: &self.nearest,
+            classes: &self.classes,
+            obstacle_count: obstacles,
+            candidate_count: candidates,
+        }
+    }
+
+    /// Forgets the temporal state, as after [`Classifier::new`]: evidence 0, thresholds at the
+    /// free-space value `2·K1` ([`History::free_space`]).
+    pub fn reset(&mut self) {
+        self.history.reset_free_space(self.params.k1);
+        self.nearest.fill(f32::INFINITY);
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &FoliageParams {
+        &self.params
+    }
+
+    /// The temporal state (`T_{k-1}`, `T_{k-2}`, `C_{k-1}`, `C_{k-2}` per window) after the last scan.
+    pub fn history(&self) -> &History {
+        &self.history
+    }
+
+    /// `v`, `dv`, `nad2v` of the last scan.
+    pub fn low_freq(&self) -> &LowFreq {
+        &self.low
+    }
+
+    /// `R_c` of the last scan (candidate range per return, 0 = not a candidate).
+    pub fn candidates(&self) -> &[f32] {
+        &self.rc
+    }
+
+    /// `R_f` of the last scan (obstacle range per return after pruning, 0 = not an obstacle).
+    pub fn obstacles(&self) -> &[f32] {
+        &self.rf
+    }
+
+    /// Number of angular windows `N_w`.
+    pub fn n_windows(&self) -> usize {
+        self.n_windows
+    }
+}
+
+#[cfg(test)]
+mod tests;
