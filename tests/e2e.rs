@@ -6,6 +6,8 @@
 
 /// The `mimnav` command line.
 mod cli;
+/// The foliage classifier behind the driver replaying a capture.
+mod foliage;
 /// The mapper on the real capture and behind the simulator and the driver.
 mod mapper;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner.

@@ -126,7 +126,8 @@ fn lockstep_waits_for_the_stack_and_follows_its_commands() {
                 v: 0.3,
                 omega: 0.0,
                 status: command_status::DRIVING,
-                reserved: [0; 7],
+                flags: 0,
+                reserved: [0; 6],
             };
             cmd.publish(c).expect("publish");
             answered += 1;

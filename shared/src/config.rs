@@ -75,6 +75,8 @@ pub struct Config {
     pub mapper: MapperConfig,
     /// The planner.
     pub planner: PlannerConfig,
+    /// The foliage classifier.
+    pub foliage: FoliageConfig,
 }
 
 /// The keys of the config file as written.
@@ -89,6 +91,87 @@ struct FileConfig {
     sim: SimConfig,
     mapper: MapperConfig,
     planner: PlannerConfig,
+    foliage: FoliageConfig,
+}
+
+/// The foliage classifier (`[foliage]`): the parameters of
+/// `foliage-discrimination-rotating-ladar.txt`, scaled for a VLP-16 (the paper's values in the
+/// README).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FoliageConfig {
+    /// K1: the threshold's constant part.
+    pub k1: f64,
+    /// δ: how much a new candidate raises its neighbouring windows' thresholds.
+    pub delta: f64,
+    /// K2: how much the last two scans' evidence widens RELAX-OBST's tolerance.
+    pub k2: f64,
+    /// K3: the evidence a window with a candidate gets.
+    pub k3: f64,
+    /// a: range error per metre of range.
+    pub range_error_a: f64,
+    /// b: range error at zero range, m.
+    pub range_error_b_m: f64,
+    /// d_min: nearer obstacles are cropped, m.
+    pub d_min_m: f64,
+    /// d_max: farther obstacles are cropped, m.
+    pub d_max_m: f64,
+    /// α: window of FIND-LOW-FREQ, degrees.
+    pub window_deg: f64,
+    /// Sector of R_s, degrees.
+    pub sector_deg: f64,
+    /// W_s: returns around a return that REMOVE-THIN-OBST counts.
+    pub thin_window: usize,
+    /// O_s: obstacle returns among them that keep it.
+    pub thin_min: usize,
+}
+
+impl Default for FoliageConfig {
+    fn default() -> Self {
+        FoliageConfig {
+            k1: 0.02,
+            delta: 0.03,
+            k2: 0.05,
+            k3: 25.0,
+            range_error_a: 0.01,
+            range_error_b_m: 0.03,
+            d_min_m: 0.3,
+            d_max_m: 3.0,
+            window_deg: 0.8,
+            sector_deg: 10.0,
+            thin_window: 9,
+            thin_min: 3,
+        }
+    }
+}
+
+impl FoliageConfig {
+    fn validate(&self, r: &mut Ranges) {
+        r.check("foliage.k1", self.k1, 0.0, 10.0);
+        r.check("foliage.delta", self.delta, 0.0, 10.0);
+        r.check("foliage.k2", self.k2, 0.0, 10.0);
+        r.check("foliage.k3", self.k3, 0.0, 1000.0);
+        r.check("foliage.range_error_a", self.range_error_a, 0.0, 1.0);
+        r.check("foliage.range_error_b_m", self.range_error_b_m, 0.0, 1.0);
+        r.check("foliage.d_min_m", self.d_min_m, 0.0, 100.0);
+        r.check("foliage.d_max_m", self.d_max_m, 0.0, 200.0);
+        r.require(
+            self.d_min_m < self.d_max_m,
+            format!(
+                "foliage.d_min_m = {} must be below foliage.d_max_m = {}",
+                self.d_min_m, self.d_max_m
+            ),
+        );
+        r.check("foliage.window_deg", self.window_deg, 0.05, 45.0);
+        r.check("foliage.sector_deg", self.sector_deg, 5.0, 180.0);
+        r.check("foliage.thin_window", self.thin_window as f64, 1.0, 1001.0);
+        r.check(
+            "foliage.thin_min",
+            self.thin_min as f64,
+            0.0,
+            self.thin_window as f64,
+        );
+    }
 }
 
 /// How the planner inflates obstacles.
@@ -138,6 +221,10 @@ pub struct PlannerConfig {
     pub route_cell_m: f64,
     /// Extra route cost per unit of planning cost.
     pub route_cost_weight: f64,
+    /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
+    pub use_foliage: bool,
+    /// A foliage verdict older than this is ignored, s.
+    pub foliage_max_age_s: f64,
     /// A map older than this is stale: zero velocity, s.
     pub map_max_age_s: f64,
     /// Odometry older than this is stale: zero velocity, s.
@@ -164,6 +251,8 @@ impl Default for PlannerConfig {
             margin_m: 0.05,
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
+            use_foliage: true,
+            foliage_max_age_s: 0.3,
             map_max_age_s: 0.5,
             odom_max_age_s: 0.5,
             goal_max_age_s: 0.0,
@@ -210,6 +299,12 @@ impl PlannerConfig {
             self.route_cost_weight,
             0.0,
             100.0,
+        );
+        r.check(
+            "planner.foliage_max_age_s",
+            self.foliage_max_age_s,
+            0.01,
+            60.0,
         );
         r.check("planner.map_max_age_s", self.map_max_age_s, 0.01, 60.0);
         r.check("planner.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
@@ -768,6 +863,7 @@ impl Default for Config {
             sim: SimConfig::default(),
             mapper: MapperConfig::default(),
             planner: PlannerConfig::default(),
+            foliage: FoliageConfig::default(),
         }
     }
 }
@@ -950,6 +1046,7 @@ impl Config {
             sim: file.sim,
             mapper: file.mapper,
             planner: file.planner,
+            foliage: file.foliage,
         };
         let mut r = Ranges(Vec::new());
         config.robot.validate(&mut r);
@@ -958,6 +1055,7 @@ impl Config {
         config.sim.validate(&mut r);
         config.mapper.validate(&mut r);
         config.planner.validate(&mut r);
+        config.foliage.validate(&mut r);
         if !r.0.is_empty() {
             return Err(err(&source, r.0.join("; ")));
         }
@@ -1149,6 +1247,7 @@ mod shipped {
         assert_eq!(c.sim, d.sim);
         assert_eq!(c.mapper, d.mapper);
         assert_eq!(c.planner, d.planner);
+        assert_eq!(c.foliage, d.foliage);
         for profile in ["spot", "turtlebot2"] {
             let c =
                 Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");

@@ -561,6 +561,24 @@ pub fn plan_subscriber(node: &Node<Svc>) -> Result<PlanSubscriber, IpcError> {
     SliceSubscriber::open(node, topics::MAP_PLAN)
 }
 
+/// Publisher of `foliage/alarm`.
+pub type FoliagePublisher = SlicePublisher<topics::FoliageReturn, topics::FoliageHeader>;
+/// Subscriber of `foliage/alarm`.
+pub type FoliageSubscriber = SliceSubscriber<topics::FoliageReturn, topics::FoliageHeader>;
+
+/// Opens `foliage/alarm` for publishing verdicts of scans of up to `max_returns` returns.
+pub fn foliage_publisher(
+    node: &Node<Svc>,
+    max_returns: usize,
+) -> Result<FoliagePublisher, IpcError> {
+    SlicePublisher::open(node, topics::FOLIAGE_ALARM, max_returns)
+}
+
+/// Opens `foliage/alarm` for receiving.
+pub fn foliage_subscriber(node: &Node<Svc>) -> Result<FoliageSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::FOLIAGE_ALARM)
+}
+
 /// Opens `lidar/packets` for publishing raw datagrams.
 pub fn packets_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::RawPacket>, IpcError> {
     ValuePublisher::open(node, topics::LIDAR_PACKETS)

@@ -220,6 +220,11 @@ mod tests {
         assert_eq!(core::mem::size_of::<ScanReturn>(), 12);
         assert_eq!(core::mem::size_of::<PointsHeader>(), 56);
         assert_eq!(core::mem::size_of::<ScanHeader>(), 40);
+        assert_eq!(core::mem::size_of::<FoliageReturn>(), 12);
+        assert_eq!(
+            core::mem::size_of::<FoliageHeader>(),
+            56 + 4 * MAX_FOLIAGE_SECTORS
+        );
     }
 }
 
@@ -244,10 +249,17 @@ pub mod command_status {
     pub const NO_GOAL: u8 = 4;
 }
 
+/// Bits of [`VelocityCommand::flags`].
+pub mod command_flags {
+    /// The foliage classifier raised its alarm (an obstacle that is not foliage is in range):
+    /// the planner took its obstacles as solid.
+    pub const FOLIAGE_ALARM: u8 = 1;
+}
+
 /// A velocity command for the base (REP-103: v forward, ω counter-clockwise).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("mimnav/VelocityCommand/v1")]
+#[type_name("mimnav/VelocityCommand/v2")]
 pub struct VelocityCommand {
     /// Command sequence number.
     pub seq: u64,
@@ -265,8 +277,10 @@ pub struct VelocityCommand {
     pub omega: f32,
     /// [`command_status`].
     pub status: u8,
+    /// [`command_flags`] bits.
+    pub flags: u8,
     /// Reserved, zero.
-    pub reserved: [u8; 7],
+    pub reserved: [u8; 6],
 }
 
 /// The robot's 2-D pose and velocity in the fixed odometry frame.
@@ -408,4 +422,89 @@ pub struct Goal {
     pub y: f64,
     /// Reached within this distance, m.
     pub tolerance_m: f64,
+}
+
+/// Topic of the foliage classifier's verdicts, one per planar scan: `[FoliageReturn]` with a
+/// [`FoliageHeader`].
+pub const FOLIAGE_ALARM: &str = "mimnav/foliage/alarm";
+
+/// Most sectors a [`FoliageHeader`] carries (5° sectors).
+pub const MAX_FOLIAGE_SECTORS: usize = 72;
+
+/// Class of a return in a [`FoliageReturn`].
+pub mod foliage_class {
+    /// No return.
+    pub const NO_RETURN: u8 = 0;
+    /// Foliage (or anything the classifier does not take for an obstacle).
+    pub const FOLIAGE: u8 = 1;
+    /// An obstacle that is not foliage: the alarm.
+    pub const OBSTACLE: u8 = 2;
+    /// An obstacle candidate held back (seen once, thin, or out of range).
+    pub const PRUNED: u8 = 3;
+}
+
+/// User header of a `foliage/alarm` sample.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/FoliageHeader/v1")]
+pub struct FoliageHeader {
+    /// Verdict sequence number.
+    pub seq: u64,
+    /// Sequence number of the scan ([`ScanHeader::seq`], the revolution's).
+    pub source_seq: u64,
+    /// Sensor time of the scan ([`ScanHeader::stamp_ns`]).
+    pub stamp_ns: u64,
+    /// `CLOCK_MONOTONIC` when the revolution's last packet was received, ns.
+    pub rx_mono_ns: u64,
+    /// Returns in the payload (one per return of the scan, in its order).
+    pub count: u32,
+    /// Sectors in `nearest_m`.
+    pub sectors: u32,
+    /// Returns classed [`foliage_class::OBSTACLE`].
+    pub obstacles: u32,
+    /// Time the classifier took, µs.
+    pub processing_us: u32,
+    /// 1: an obstacle that is not foliage is in range (the alarm).
+    pub alarm: u8,
+    /// Laser id of the scan.
+    pub laser_id: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 6],
+    /// R_s: the nearest obstacle's range per sector, m (sector k spans bearings
+    /// −π + k·2π/sectors onwards); infinite where there is none.
+    pub nearest_m: [f32; MAX_FOLIAGE_SECTORS],
+}
+
+impl Default for FoliageHeader {
+    fn default() -> Self {
+        FoliageHeader {
+            seq: 0,
+            source_seq: 0,
+            stamp_ns: 0,
+            rx_mono_ns: 0,
+            count: 0,
+            sectors: 0,
+            obstacles: 0,
+            processing_us: 0,
+            alarm: 0,
+            laser_id: 0,
+            reserved: [0; 6],
+            nearest_m: [f32::INFINITY; MAX_FOLIAGE_SECTORS],
+        }
+    }
+}
+
+/// One return of a classified scan (R_f).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/FoliageReturn/v1")]
+pub struct FoliageReturn {
+    /// Bearing in the sensor frame, radians (as the scan's).
+    pub angle_rad: f32,
+    /// Horizontal range, m; 0: no return.
+    pub range_m: f32,
+    /// [`foliage_class`].
+    pub class: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 3],
 }

@@ -233,6 +233,26 @@ fn check(name: &str, value: f32, lo: f32, hi: f32, lo_open: bool) -> Result<(), 
 }
 
 impl FoliageParams {
+    /// The parameters of `[foliage]` in the stack's config (degrees become radians).
+    pub fn from_config(c: &mimnav_shared::config::FoliageConfig) -> Self {
+        FoliageParams {
+            k1: c.k1 as f32,
+            delta: c.delta as f32,
+            k2: c.k2 as f32,
+            k3: c.k3 as f32,
+            range_error_a: c.range_error_a as f32,
+            range_error_b_m: c.range_error_b_m as f32,
+            d_min_m: c.d_min_m as f32,
+            d_max_m: c.d_max_m as f32,
+            window_rad: (c.window_deg as f32).to_radians(),
+            sector_rad: (c.sector_deg as f32).to_radians(),
+            thin_window: c.thin_window,
+            thin_min: c.thin_min,
+        }
+    }
+}
+
+impl FoliageParams {
     /// Checks every field; the error names the field and its allowed range.
     pub fn validate(&self) -> Result<(), String> {
         check("k1", self.k1, 0.0, 10.0, false)?;

@@ -1463,3 +1463,22 @@ fn get_candidates_matches_the_papers_loop_on_random_small_scans() {
     }
     assert!(found > 2000, "{found}");
 }
+
+#[test]
+fn the_config_defaults_are_the_library_defaults() {
+    let from = FoliageParams::from_config(&mimnav_shared::config::FoliageConfig::default());
+    let d = FoliageParams::default();
+    assert_eq!(from.k1, d.k1);
+    assert_eq!(from.delta, d.delta);
+    assert_eq!(from.k2, d.k2);
+    assert_eq!(from.k3, d.k3);
+    assert_eq!(from.range_error_a, d.range_error_a);
+    assert_eq!(from.range_error_b_m, d.range_error_b_m);
+    assert_eq!((from.d_min_m, from.d_max_m), (d.d_min_m, d.d_max_m));
+    assert!((from.window_rad - d.window_rad).abs() < 1e-6);
+    assert!((from.sector_rad - d.sector_rad).abs() < 1e-6);
+    assert_eq!(
+        (from.thin_window, from.thin_min),
+        (d.thin_window, d.thin_min)
+    );
+}

@@ -2,7 +2,8 @@
 //! to its goal.
 //!
 //! The simulator streams the VLP-16's UDP packets to the driver over loopback in real time, as a
-//! real sensor would; the driver, the mapper and the planner run as their own processes and talk
+//! real sensor would; the driver, the mapper, the foliage classifier and the planner run as their
+//! own processes and talk
 //! over iceoryx2 in a private domain (they never meet a stack already running on the machine);
 //! the simulator drives the robot by the planner's `cmd_vel`. The demo sends the world's goal,
 //! follows the episode with a progress bar, measures the latency from each revolution's last
@@ -20,7 +21,7 @@ use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_shared::config::{Config, toml_quote};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, PrivateDomain};
-use mimnav_shared::topics::{Goal, MapHeader, command_status};
+use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
 use mimnav_sim::world::WorldFile;
 
 use crate::procs::{Service, service_binary};
@@ -110,7 +111,12 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         config.robot.radius_m
     );
     let mut services = Vec::new();
-    for name in ["mimnav-velodyne", "mimnav-mapper", "mimnav-planner"] {
+    for name in [
+        "mimnav-velodyne",
+        "mimnav-mapper",
+        "mimnav-foliage",
+        "mimnav-planner",
+    ] {
         services.push(Service::start(&service_binary(name)?, &child_args)?);
     }
     // the planner is up when it speaks (a stale-input stop every 100 ms while no map comes)
@@ -165,6 +171,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let mut received: VecDeque<(u64, u64)> = VecDeque::new();
     let mut latencies_ms = Vec::new();
     let (mut maps, mut cmds, mut blocked, mut stale) = (0u64, 0u64, 0u64, 0u64);
+    let mut alarmed = 0u64;
     let mut last_map: Option<(MapHeader, Vec<u8>)> = None;
     let mut path: Vec<(f64, f64)> = Vec::new();
     let mut goal_seen = false;
@@ -191,6 +198,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         }
         while let Some(c) = commands.receive()? {
             cmds += 1;
+            alarmed += u64::from(c.flags & command_flags::FOLIAGE_ALARM != 0);
             match c.status {
                 command_status::BLOCKED => blocked += 1,
                 command_status::STALE_INPUT => stale += 1,
@@ -295,7 +303,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         num("path_length_m") / num("straight_m")
     );
     println!(
-        "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+        "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input, {alarmed} with the foliage alarm); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
         latencies_ms.len(),
         percentile(&latencies_ms, 0.5),
         percentile(&latencies_ms, 0.99),

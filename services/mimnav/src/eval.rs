@@ -17,6 +17,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, Result};
+use mimnav_foliage::{Classifier, FoliageParams};
 use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::glass::Pose2;
 use mimnav_mapper::render::{self, Image};
@@ -24,7 +25,7 @@ use mimnav_mapper::score::{MapScore, score};
 use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
 use mimnav_planner::dwa::DwaOutcome;
 use mimnav_planner::inflate::Inflation;
-use mimnav_planner::{Planner, PlannerParams};
+use mimnav_planner::{Planner, PlannerParams, confirm_obstacles};
 use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
@@ -37,6 +38,9 @@ use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 pub enum Method {
     /// The intensity map with adaptive inflation along the goal direction (the paper's method).
     Adaptive,
+    /// The intensity map with adaptive inflation and the foliage classifier in the loop: the
+    /// obstacles it confirms are solid.
+    Foliage,
     /// The intensity map with uniform inflation (the paper's ablation).
     Uniform,
     /// Baseline: DWA on the planar scan of one laser, every return an obstacle.
@@ -50,6 +54,7 @@ impl Method {
     pub fn label(self) -> &'static str {
         match self {
             Method::Adaptive => "intensity map, adaptive inflation",
+            Method::Foliage => "intensity map, adaptive, foliage classifier",
             Method::Uniform => "intensity map, uniform inflation",
             Method::LaserScan => "DWA on a laser scan",
             Method::Occupancy => "DWA on an occupancy map",
@@ -60,6 +65,7 @@ impl Method {
     pub fn key(self) -> &'static str {
         match self {
             Method::Adaptive => "adaptive",
+            Method::Foliage => "foliage",
             Method::Uniform => "uniform",
             Method::LaserScan => "laser-scan",
             Method::Occupancy => "occupancy",
@@ -70,6 +76,7 @@ impl Method {
     pub fn colour(self) -> [u8; 3] {
         match self {
             Method::Adaptive => [255, 60, 200],
+            Method::Foliage => [160, 90, 255],
             Method::Uniform => [0, 200, 255],
             Method::LaserScan => [255, 150, 0],
             Method::Occupancy => [230, 30, 30],
@@ -79,6 +86,7 @@ impl Method {
     fn colour_name(self) -> &'static str {
         match self {
             Method::Adaptive => "magenta",
+            Method::Foliage => "violet",
             Method::Uniform => "cyan",
             Method::LaserScan => "orange",
             Method::Occupancy => "red",
@@ -162,6 +170,8 @@ pub struct Episode {
     pub revolutions: u64,
     /// Revolutions the planner found no feasible motion.
     pub blocked: u64,
+    /// Scans the foliage classifier alarmed on (with the classifier in the loop).
+    pub alarms: u64,
     /// Planner time, summed, ns.
     pub plan_ns: u128,
     /// Mapper (or baseline map) time, summed, ns.
@@ -188,12 +198,15 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     let mut mapper = Mapper::new(MapperParams::from_config(config));
     let mut params = PlannerParams::from_config(config);
     params.inflation = match method {
-        Method::Adaptive => Inflation::Adaptive,
+        Method::Adaptive | Method::Foliage => Inflation::Adaptive,
         // the baselines use the usual costmap: uniform inflation
         Method::Uniform | Method::LaserScan | Method::Occupancy => Inflation::Uniform,
     };
     let mut planner = Planner::new(params);
     let (mut baseline, mut truth) = (Vec::new(), Vec::new());
+    let mut classifier = Classifier::new(FoliageParams::from_config(&config.foliage))
+        .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
+    let (mut angles, mut ranges, mut obstacles) = (Vec::new(), Vec::new(), Vec::new());
     let mut episode = Episode {
         world: scene.name.clone(),
         method,
@@ -205,6 +218,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         score: MapScore::default(),
         revolutions: 0,
         blocked: 0,
+        alarms: 0,
         plan_ns: 0,
         map_ns: 0,
         trajectory: vec![(scene.start[0], scene.start[1])],
@@ -226,7 +240,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         let b = *sim.base();
         let t = std::time::Instant::now();
         let classes: &[u8] = match method {
-            Method::Adaptive | Method::Uniform => {
+            Method::Adaptive | Method::Uniform | Method::Foliage => {
                 mapper.update(
                     &rev.points,
                     OdomInput::Fresh(Odom {
@@ -240,7 +254,31 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
                     }),
                     rev.header.stamp_ns,
                 );
-                mapper.classes()
+                if method == Method::Foliage {
+                    angles.clear();
+                    ranges.clear();
+                    for r in &rev.scan {
+                        angles.push(r.angle_rad);
+                        ranges.push(r.range_m);
+                    }
+                    let verdict = classifier.classify(&angles, &ranges);
+                    episode.alarms += u64::from(verdict.alarm);
+                    obstacles.clear();
+                    obstacles.extend(
+                        verdict
+                            .classes
+                            .iter()
+                            .zip(angles.iter().zip(&ranges))
+                            .filter(|(c, _)| **c == mimnav_foliage::class::OBSTACLE)
+                            .map(|(_, (&a, &r))| (a, r)),
+                    );
+                    baseline.clear();
+                    baseline.extend_from_slice(mapper.classes());
+                    confirm_obstacles(&mut baseline, grid, obstacles.iter().copied());
+                    &baseline
+                } else {
+                    mapper.classes()
+                }
             }
             Method::LaserScan => {
                 scan_occupancy(&rev.scan, grid, &mut baseline);
@@ -400,6 +438,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
     let methods = if args.methods.is_empty() {
         vec![
             Method::Adaptive,
+            Method::Foliage,
             Method::Uniform,
             Method::LaserScan,
             Method::Occupancy,

@@ -95,6 +95,32 @@ impl PlannerParams {
     }
 }
 
+/// Marks the cells of obstacles the foliage classifier confirmed solid (DESIGN §8: "obstacles
+/// the foliage classifier confirms are solid for the planner"), so a trunk or a rock hidden in
+/// grass that the map calls passable is avoided. `obstacles` are (bearing rad, horizontal range
+/// m) in the sensor frame, which is the map's frame. Returns how many cells changed.
+pub fn confirm_obstacles(
+    classes: &mut [u8],
+    grid: GridSpec,
+    obstacles: impl IntoIterator<Item = (f32, f32)>,
+) -> usize {
+    let mut changed = 0;
+    for (angle, range) in obstacles {
+        if !(range > 0.0 && range.is_finite() && angle.is_finite()) {
+            continue;
+        }
+        let (s, c) = angle.sin_cos();
+        if let Some((r, col)) = grid.cell_of(range * c, range * s)
+            && let Some(cell) = classes.get_mut(grid.index(r, col))
+            && *cell != mimnav_shared::topics::cell_class::SOLID
+        {
+            *cell = mimnav_shared::topics::cell_class::SOLID;
+            changed += 1;
+        }
+    }
+    changed
+}
+
 /// The planner with its kernel cache and buffers: one call per map.
 #[derive(Debug)]
 pub struct Planner {
@@ -187,5 +213,72 @@ impl Planner {
     /// The route of the last map.
     pub fn route(&self) -> &Route {
         &self.route
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mimnav_shared::topics::cell_class;
+
+    #[test]
+    fn confirmed_obstacles_turn_grass_solid_and_bad_returns_are_ignored() {
+        let grid = GridSpec {
+            cells: 40,
+            cell_m: 0.1,
+        };
+        let mut classes = vec![cell_class::PASSABLE; grid.len()];
+        let n = confirm_obstacles(
+            &mut classes,
+            grid,
+            [
+                (0.0, 1.0),
+                (std::f32::consts::FRAC_PI_2, 1.5),
+                (0.0, f32::NAN),
+                (0.0, 0.0),
+                (1.0, 50.0),
+            ],
+        );
+        assert_eq!(n, 2);
+        let at = |x: f32, y: f32| {
+            let (r, c) = grid.cell_of(x, y).expect("inside");
+            classes[grid.index(r, c)]
+        };
+        assert_eq!(at(1.0, 0.0), cell_class::SOLID);
+        let (sy, cy) = std::f32::consts::FRAC_PI_2.sin_cos();
+        assert_eq!(at(1.5 * cy, 1.5 * sy), cell_class::SOLID);
+        assert_eq!(at(-1.0, 0.0), cell_class::PASSABLE);
+    }
+
+    #[test]
+    fn a_rock_confirmed_in_the_grass_ahead_is_driven_around() {
+        // all grass; the classifier confirms a rock 1 m ahead across the straight way
+        let grid = GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        };
+        let mut classes = vec![cell_class::PASSABLE; grid.len()];
+        let mut planner = Planner::new(PlannerParams::default());
+        let straight = |o: DwaOutcome| match o {
+            DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
+            DwaOutcome::Blocked => false,
+        };
+        assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
+        let rock: Vec<(f32, f32)> = (-6..=6)
+            .map(|k| {
+                (
+                    (k as f32 * 0.04).atan2(1.0),
+                    (1.0f32).hypot(k as f32 * 0.04),
+                )
+            })
+            .collect();
+        confirm_obstacles(&mut classes, grid, rock);
+        assert!(!straight(planner.plan(
+            &classes,
+            grid,
+            0.3,
+            0.0,
+            (4.0, 0.0)
+        )));
     }
 }

@@ -13,13 +13,15 @@ use anyhow::Result;
 use clap::Parser;
 use iceoryx2::prelude::*;
 use mimnav_planner::dwa::DwaOutcome;
-use mimnav_planner::{Planner, PlannerParams};
+use mimnav_planner::{Planner, PlannerParams, confirm_obstacles};
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening, Svc};
-use mimnav_shared::topics::{Goal, Odometry, VelocityCommand, command_status};
+use mimnav_shared::topics::{
+    FoliageHeader, Goal, Odometry, VelocityCommand, command_flags, command_status, foliage_class,
+};
 
 /// The planner: map/plan + odom + goal → cmd_vel.
 #[derive(Debug, Parser)]
@@ -45,6 +47,8 @@ struct Commander {
     seq: u64,
     last_status: u8,
     validity_ns: u64,
+    /// [`command_flags`] of the commands sent.
+    flags: u8,
 }
 
 impl Commander {
@@ -70,7 +74,8 @@ impl Commander {
             v: v as f32,
             omega: omega as f32,
             status,
-            reserved: [0; 7],
+            flags: self.flags,
+            reserved: [0; 6],
         };
         self.seq += 1;
         if let Err(e) = self.publisher.publish(cmd) {
@@ -88,6 +93,7 @@ fn run(config: &Config) -> Result<()> {
     let plan_sub = ipc::plan_subscriber(&node)?;
     let odom_sub = ipc::odom_subscriber(&node)?;
     let goal_sub = ipc::goal_subscriber(&node)?;
+    let foliage_sub = ipc::foliage_subscriber(&node)?;
     let cmd_pub = ipc::cmd_vel_publisher(&node)?;
     let p = &config.planner;
     let mut planner = Planner::new(PlannerParams::from_config(config));
@@ -110,15 +116,37 @@ fn run(config: &Config) -> Result<()> {
     let (mut odom, mut goal): (Option<Odometry>, Option<Goal>) = (None, None);
     let mut last_map_mono = 0u64;
     let mut classes = Vec::new();
+    // the latest foliage verdict: its header and its obstacle returns
+    let mut foliage: Option<(FoliageHeader, Vec<(f32, f32)>)> = None;
+    let foliage_max_age_ns = (p.foliage_max_age_s * 1e9) as u64;
     let mut commander = Commander {
         publisher: cmd_pub,
         seq: 0,
         last_status: u8::MAX,
         validity_ns,
+        flags: 0,
     };
     let result = waitset.wait_and_process(|_id| {
         let now = ipc::monotonic_ns();
         let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());
+        loop {
+            match foliage_sub.receive() {
+                Ok(Some(sample)) => {
+                    let obstacles = sample
+                        .payload()
+                        .iter()
+                        .filter(|r| r.class == foliage_class::OBSTACLE)
+                        .map(|r| (r.angle_rad, r.range_m))
+                        .collect();
+                    foliage = Some((*sample.user_header(), obstacles));
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    faults.record("receive_failed", Instant::now(), e);
+                    break;
+                }
+            }
+        }
         if let Ok(Some(o)) = odom_sub.latest() {
             odom = Some(o);
         }
@@ -194,6 +222,17 @@ fn run(config: &Config) -> Result<()> {
                     &mut faults,
                 );
                 continue;
+            }
+            // obstacles the foliage classifier confirms are solid (a trunk hidden in grass)
+            commander.flags = 0;
+            if p.use_foliage
+                && let Some((fh, obstacles)) = &foliage
+                && now.saturating_sub(fh.rx_mono_ns) <= foliage_max_age_ns
+            {
+                if fh.alarm != 0 {
+                    commander.flags |= command_flags::FOLIAGE_ALARM;
+                }
+                confirm_obstacles(&mut classes, grid, obstacles.iter().copied());
             }
             match planner.plan(&classes, grid, f64::from(o.v), f64::from(o.omega), (gx, gy)) {
                 DwaOutcome::Drive { v, omega, .. } => commander.send(

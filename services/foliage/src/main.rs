@@ -1,0 +1,165 @@
+//! `mimnav-foliage`: the foliage classifier service.
+//!
+//! Wiring only: every planar scan on `lidar/scan2d` (one laser of each VLP-16 revolution, chosen
+//! by `velodyne.scan_laser` and `velodyne.scan_return`) goes through the classifier
+//! (`mimnav_foliage`), and its verdict — the alarm flag, the nearest obstacle per sector and the
+//! class of every return — goes out on `foliage/alarm`, naming the scan's sequence number. The
+//! alarm's rising and falling edges are logged; processing time every 10 s. SIGTERM or SIGINT
+//! ends the loop cleanly.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use clap::Parser;
+use iceoryx2::prelude::*;
+use mimnav_foliage::{Classifier, FoliageParams};
+use mimnav_shared::cli::ServiceArgs;
+use mimnav_shared::config::Config;
+use mimnav_shared::faults::Faults;
+use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::topics::{FoliageHeader, FoliageReturn, MAX_FOLIAGE_SECTORS};
+use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
+
+/// The foliage classifier: lidar/scan2d → foliage/alarm.
+#[derive(Debug, Parser)]
+#[command(name = "mimnav-foliage", version)]
+struct Args {
+    #[command(flatten)]
+    service: ServiceArgs,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let config = match args.service.load_or_exit("mimnav-foliage", &[]) {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
+    mimnav_shared::logging::init(&config.log.level);
+    mimnav_shared::cli::finish("mimnav-foliage", run(&config).map(|()| ExitCode::SUCCESS))
+}
+
+fn run(config: &Config) -> Result<()> {
+    let params = FoliageParams::from_config(&config.foliage);
+    let mut classifier = Classifier::new(params).map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
+    anyhow::ensure!(
+        params.n_sectors() <= MAX_FOLIAGE_SECTORS,
+        "[foliage]: sector_deg = {} gives {} sectors, more than the {MAX_FOLIAGE_SECTORS} foliage/alarm carries",
+        config.foliage.sector_deg,
+        params.n_sectors()
+    );
+    let node = ipc::node(config, "foliage")?;
+    let scans = ipc::scan_subscriber(&node)?;
+    // as long as the driver's longest scan
+    let asm = AssemblerConfig::from_config(config);
+    let max_returns = max_scan_len(config.velodyne.rpm, asm.max_duration_ns as f64 * 1e-9);
+    let alarms = ipc::foliage_publisher(&node, max_returns)?;
+    tracing::info!(
+        windows = params.n_windows(),
+        sectors = params.n_sectors(),
+        "topics open: {}",
+        mimnav_shared::topics::FOLIAGE_ALARM
+    );
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+        .create::<Svc>()
+        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
+    let _scan_guard = waitset
+        .attach_notification(scans.listener())
+        .map_err(|e| anyhow::anyhow!("cannot wait on lidar/scan2d: {e:?}"))?;
+    let _tick = waitset
+        .attach_interval(Duration::from_secs(10))
+        .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
+    let mut faults = Faults::new(Duration::from_secs(10));
+    let (mut angles, mut ranges) = (Vec::new(), Vec::new());
+    let mut out: Vec<FoliageReturn> = Vec::with_capacity(max_returns);
+    let (mut seq, mut alarm_on, mut alarmed) = (0u64, false, 0u64);
+    let (mut spent_us, mut since_report) = (0u64, 0u64);
+    let result = waitset.wait_and_process(|_id| {
+        let _ = scans.heard();
+        loop {
+            let sample = match scans.receive() {
+                Ok(Some(s)) => s,
+                Ok(None) => break,
+                Err(e) => {
+                    faults.record("receive_failed", Instant::now(), e);
+                    break;
+                }
+            };
+            let started = Instant::now();
+            let h = *sample.user_header();
+            angles.clear();
+            ranges.clear();
+            for r in sample.payload() {
+                angles.push(r.angle_rad);
+                ranges.push(r.range_m);
+            }
+            drop(sample);
+            let verdict = classifier.classify(&angles, &ranges);
+            out.clear();
+            out.extend(angles.iter().zip(&ranges).zip(verdict.classes).map(
+                |((&angle_rad, &range_m), &class)| FoliageReturn {
+                    angle_rad,
+                    range_m,
+                    class,
+                    reserved: [0; 3],
+                },
+            ));
+            let mut header = FoliageHeader {
+                seq,
+                source_seq: h.seq,
+                stamp_ns: h.stamp_ns,
+                rx_mono_ns: h.rx_mono_ns,
+                count: out.len() as u32,
+                sectors: verdict.nearest_per_sector.len().min(MAX_FOLIAGE_SECTORS) as u32,
+                obstacles: verdict.obstacle_count as u32,
+                processing_us: 0,
+                alarm: u8::from(verdict.alarm),
+                laser_id: h.laser_id,
+                ..FoliageHeader::default()
+            };
+            for (slot, &r) in header.nearest_m.iter_mut().zip(verdict.nearest_per_sector) {
+                *slot = r;
+            }
+            if verdict.alarm != alarm_on {
+                alarm_on = verdict.alarm;
+                tracing::info!(
+                    alarm = alarm_on,
+                    scan = h.seq,
+                    obstacles = verdict.obstacle_count,
+                    "foliage alarm changed"
+                );
+            }
+            alarmed += u64::from(verdict.alarm);
+            let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
+            header.processing_us = us;
+            if let Err(e) = alarms.publish(header, &out) {
+                faults.record("publish_failed", Instant::now(), e);
+            }
+            seq += 1;
+            spent_us += u64::from(us);
+            since_report += 1;
+        }
+        if since_report > 0 && seq % 100 < since_report {
+            tracing::debug!(
+                scans = seq,
+                alarmed,
+                mean_us = spent_us / since_report.max(1),
+                "classifier time per scan"
+            );
+            spent_us = 0;
+            since_report = 0;
+        }
+        CallbackProgression::Continue
+    });
+    match result {
+        Ok(r) => tracing::info!(
+            scans = seq,
+            alarmed,
+            "stopping ({r:?}); faults: {}",
+            faults.summary()
+        ),
+        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
+    }
+    Ok(())
+}
