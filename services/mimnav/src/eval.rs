@@ -11,7 +11,7 @@
 //! of successful runs; the straight distance ends on the goal circle), the F-score of the map's classes against the ground truth (mean over the
 //! classes the world has, cells within 4.5 m, every fifth revolution), and planner time.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -404,26 +404,11 @@ impl Summary {
 }
 
 fn scenario_worlds(config: &Config) -> Result<Vec<PathBuf>> {
-    let dir = config.sim.world_path(&config.dir());
-    let dir = dir
-        .parent()
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| PathBuf::from("."));
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .with_context(|| format!("cannot list the worlds in {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension().is_some_and(|e| e == "toml")
-                && p.file_name()
-                    .and_then(|n| n.to_str())
-                    .is_some_and(|n| n.starts_with("scenario"))
-        })
-        .collect();
-    v.sort();
+    let v = crate::score_map::bundled_worlds(config, "scenario")?;
     anyhow::ensure!(
         !v.is_empty(),
-        "no scenario*.toml worlds in {}: name them with --world",
-        dir.display()
+        "no scenario*.toml worlds beside {}: name them with --world",
+        config.sim.world_path(&config.dir()).display()
     );
     Ok(v)
 }
@@ -626,22 +611,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
 /// and margin) fits along, m, on the true map: the route search of the planner (16 neighbours,
 /// within 3 % of the true length) on a 5 cm grid of the whole world. None when there is no way.
 pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
-    let (x0, y0, x1, y1) = extent(scene, &[]);
-    let cell = 0.05f32;
-    let cells = ((x1 - x0).max(y1 - y0) / f64::from(cell))
-        .ceil()
-        .clamp(10.0, 2000.0) as usize;
-    let grid = GridSpec {
-        cells,
-        cell_m: cell,
-    };
-    let centre = Pose {
-        x: 0.5 * (x0 + x1),
-        y: 0.5 * (y0 + y1),
-        yaw: 0.0,
-    };
-    let mut classes = Vec::new();
-    mimnav_sim::truth::truth_grid(scene, centre, grid, &mut classes);
+    let (grid, centre, classes) = world_truth(scene, &[], 2000);
     let p = PlannerParams::from_config(config);
     let mut route = mimnav_planner::route::Route::default();
     route.build(
@@ -664,6 +634,29 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     );
     v.is_finite()
         .then(|| (f64::from(v) - config.sim.goal_tolerance_m).max(0.01))
+}
+
+/// The true classes of the whole world (and the episodes' paths) on a 5 cm grid of at most
+/// `max_cells` a side, centred on the world: the grid, its centre and the classes.
+fn world_truth(
+    scene: &Scene,
+    episodes: &[&Episode],
+    max_cells: usize,
+) -> (GridSpec, Pose, Vec<u8>) {
+    let (x0, y0, x1, y1) = extent(scene, episodes);
+    let cell_m = 0.05f32;
+    let cells = ((x1 - x0).max(y1 - y0) / f64::from(cell_m))
+        .ceil()
+        .clamp(10.0, max_cells as f64) as usize;
+    let grid = GridSpec { cells, cell_m };
+    let centre = Pose {
+        x: 0.5 * (x0 + x1),
+        y: 0.5 * (y0 + y1),
+        yaw: 0.0,
+    };
+    let mut classes = Vec::new();
+    mimnav_sim::truth::truth_grid(scene, centre, grid, &mut classes);
+    (grid, centre, classes)
 }
 
 /// The world's extent (objects, start, goal and the episodes' paths): x0, y0, x1, y1.
@@ -695,22 +688,8 @@ fn extent(scene: &Scene, episodes: &[&Episode]) -> (f64, f64, f64, f64) {
 
 /// A top view of `scene` (the true classes) with every episode's path.
 fn plot(scene: &Scene, episodes: &[&Episode]) -> Image {
-    let (x0, y0, x1, y1) = extent(scene, episodes);
-    let cell = 0.05f32;
-    let cells = ((x1 - x0).max(y1 - y0) / f64::from(cell))
-        .ceil()
-        .clamp(10.0, 600.0) as usize;
-    let grid = GridSpec {
-        cells,
-        cell_m: cell,
-    };
-    let centre = Pose {
-        x: 0.5 * (x0 + x1),
-        y: 0.5 * (y0 + y1),
-        yaw: 0.0,
-    };
-    let mut classes = Vec::new();
-    mimnav_sim::truth::truth_grid(scene, centre, grid, &mut classes);
+    let (grid, centre, classes) = world_truth(scene, episodes, 600);
+    let (cells, cell) = (grid.cells, grid.cell_m);
     // x to the right, y up
     let px = 2usize;
     let mut img = Image::new(cells * px, cells * px);

@@ -163,21 +163,32 @@ fn cell(s: &ClassScore) -> String {
     format!("{:.3} {:.3} {:.3}", s.precision(), s.recall(), s.f_score())
 }
 
+/// The worlds in the folder of the config's `sim.world` whose file names start with `prefix`,
+/// sorted.
+pub fn bundled_worlds(config: &Config, prefix: &str) -> Result<Vec<PathBuf>> {
+    let dir = config.sim.world_path(&config.dir());
+    let dir = dir
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .with_context(|| format!("cannot list the worlds in {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "toml")
+                && p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with(prefix))
+        })
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
 /// Scores the worlds and prints a table.
 pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
     let worlds = if args.worlds.is_empty() {
-        let dir = config.sim.world_path(&config.dir());
-        let dir = dir
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_else(|| PathBuf::from("."));
-        let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-            .with_context(|| format!("cannot list the worlds in {}", dir.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-            .collect();
-        v.sort();
-        v
+        bundled_worlds(config, "")?
     } else {
         args.worlds.clone()
     };
