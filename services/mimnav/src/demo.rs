@@ -101,7 +101,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let goal_pub = ipc::goal_publisher(&node)?;
 
     println!(
-        "{}: from ({:.1}, {:.1}) to ({:.1}, {:.1}) with a {} ({} m radius); driver, mapper and planner as processes, the simulator streaming UDP to 127.0.0.1:{data_port}",
+        "{}: from ({:.1}, {:.1}) to ({:.1}, {:.1}) with a {} ({} m radius); driver, mapper, foliage classifier and planner as processes, the simulator streaming UDP to 127.0.0.1:{data_port}",
         world.name,
         world.start[0],
         world.start[1],

@@ -573,7 +573,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
     if args.json {
         for e in &episodes {
             println!(
-                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1}}}",
+                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"alarms\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1}}}",
                 e.world,
                 e.method.key(),
                 e.seed,
@@ -583,6 +583,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 e.elapsed_s,
                 e.revolutions,
                 e.blocked,
+                e.alarms,
                 e.score.solid.f_score(),
                 e.score.passable.f_score(),
                 e.score.glass.f_score(),
