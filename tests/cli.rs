@@ -1,11 +1,6 @@
-use std::path::PathBuf;
 use std::process::Command;
 
-use crate::util::{bin, reference_counts, velodyne_data};
-
-fn shipped_config() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config/mimnav.toml")
-}
+use crate::util::{bin, reference_counts, shipped_config, velodyne_data};
 
 #[test]
 fn replay_prints_every_revolution_of_the_dual_capture() {

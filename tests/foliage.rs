@@ -1,25 +1,16 @@
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::foliage_class;
 
-use crate::util::{Proc, bin};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use crate::util::{Proc, bin, config_args, root};
 
 #[test]
 fn the_classifier_alarms_on_the_wall_behind_the_robot_in_the_bundled_capture() {
     // scenario 2's start: the room's back wall 1.5 m behind the sensor, within d_max = 3 m
     let domain = PrivateDomain::new("e2e-foliage");
-    let mut args = vec![
-        "--config".to_string(),
-        root().join("config/mimnav.toml").display().to_string(),
-    ];
-    args.extend(domain.set_args());
+    let args = config_args(&domain);
     let node = ipc::node(&domain.config(), "e2e-foliage-tap").expect("node");
     let alarms = ipc::foliage_subscriber(&node).expect("foliage/alarm");
     let scans = ipc::scan_subscriber(&node).expect("lidar/scan2d");

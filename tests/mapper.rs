@@ -1,4 +1,3 @@
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -6,20 +5,7 @@ use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{cell_class, map_status};
 
-use crate::util::{Proc, bin, free_udp_port, reference_counts, velodyne_data};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn config_args(domain: &PrivateDomain) -> Vec<String> {
-    let mut a = vec![
-        "--config".into(),
-        root().join("config/mimnav.toml").display().to_string(),
-    ];
-    a.extend(domain.set_args());
-    a
-}
+use crate::util::{Proc, bin, config_args, free_udp_port, reference_counts, root, velodyne_data};
 
 #[test]
 fn the_mapper_maps_every_revolution_of_the_real_capture() {

@@ -1,23 +1,14 @@
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{VelocityCommand, command_status};
 
-use crate::util::{PointsTap, Proc, bin, free_udp_port};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use crate::util::{PointsTap, Proc, bin, config_args, free_udp_port, root};
 
 /// `--config` and `--set` arguments shared by the driver and the simulator of one test.
 fn stack_args(domain: &PrivateDomain, data_port: u16, position_port: u16) -> Vec<String> {
-    let mut a = vec![
-        "--config".into(),
-        root().join("config/mimnav.toml").display().to_string(),
-    ];
-    a.extend(domain.set_args());
+    let mut a = config_args(domain);
     for s in [
         "velodyne.input=\"udp\"".to_string(),
         "velodyne.bind_address=\"127.0.0.1\"".into(),

@@ -175,3 +175,20 @@ pub fn free_udp_port() -> u16 {
     let s = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
     s.local_addr().expect("addr").port()
 }
+
+/// The repository's top folder.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The shipped `config/mimnav.toml`.
+pub fn shipped_config() -> PathBuf {
+    root().join("config/mimnav.toml")
+}
+
+/// `--config` with the shipped config and the `--set` options of a private domain.
+pub fn config_args(domain: &mimnav_shared::ipc::PrivateDomain) -> Vec<String> {
+    let mut a = vec!["--config".into(), shipped_config().display().to_string()];
+    a.extend(domain.set_args());
+    a
+}

@@ -1,6 +1,6 @@
 use std::io::{BufRead, BufReader, Read};
 use std::net::{Ipv4Addr, UdpSocket};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -10,11 +10,9 @@ use mimnav_shared::topics::cut_reason;
 use mimnav_velodyne::capture::{CaptureReader, PcapDatagramWriter};
 use mimnav_velodyne::packet::{BLOCKS, CHANNELS, encode_data_packet};
 
-use crate::util::{PointsTap, Proc, bin, free_udp_port, reference_counts, velodyne_data};
-
-fn shipped_config() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../config/mimnav.toml")
-}
+use crate::util::{
+    PointsTap, Proc, bin, free_udp_port, reference_counts, shipped_config, velodyne_data,
+};
 
 fn driver(domain: &PrivateDomain) -> Command {
     let mut c = Command::new(bin("mimnav-velodyne"));

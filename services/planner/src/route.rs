@@ -52,8 +52,6 @@ const MOVES: [(i32, i32); 16] = [
 pub struct Route {
     /// The coarse grid.
     coarse: GridSpec,
-    /// Map cells per coarse cell, per side.
-    factor: usize,
     /// Whether each coarse cell can be crossed.
     open: Vec<bool>,
     /// The cheapest planning cost (0–255) of each coarse cell's map cells.
@@ -74,7 +72,6 @@ impl Default for Route {
                 cells: 0,
                 cell_m: 1.0,
             },
-            factor: 1,
             open: Vec::new(),
             weight: Vec::new(),
             clear: Vec::new(),
@@ -109,7 +106,6 @@ impl Route {
     ) {
         let factor = ((p.cell_m / grid.cell_m).round() as usize).clamp(1, grid.cells.max(1));
         let cells = grid.cells.div_ceil(factor);
-        self.factor = factor;
         self.coarse = GridSpec {
             cells,
             cell_m: grid.cell_m * factor as f32,
