@@ -253,7 +253,7 @@ impl Default for PlannerConfig {
             route_cost_weight: 1.0,
             use_foliage: true,
             foliage_max_age_s: 0.3,
-            map_max_age_s: 0.5,
+            map_max_age_s: 0.15,
             odom_max_age_s: 0.5,
             goal_max_age_s: 0.0,
         }
@@ -1056,6 +1056,19 @@ impl Config {
         config.mapper.validate(&mut r);
         config.planner.validate(&mut r);
         config.foliage.validate(&mut r);
+        // a map comes once per revolution: a shorter limit would call every map stale
+        let revolution_s = 60.0 / config.velodyne.rpm;
+        r.require(
+            !(300.0..=1200.0).contains(&config.velodyne.rpm)
+                || config.planner.map_max_age_s >= 1.2 * revolution_s,
+            format!(
+                "planner.map_max_age_s = {} is shorter than 1.2 revolutions at velodyne.rpm = {} \
+                 ({:.3} s): every map would be stale",
+                config.planner.map_max_age_s,
+                config.velodyne.rpm,
+                1.2 * revolution_s
+            ),
+        );
         if !r.0.is_empty() {
             return Err(err(&source, r.0.join("; ")));
         }
@@ -1139,6 +1152,15 @@ mod tests {
         assert_eq!(c.robot, RobotProfile::default());
         assert_eq!(c.iceoryx2.global.prefix.to_string(), DEFAULT_IOX2_PREFIX);
         assert_eq!(c.iceoryx2.global.root_path().to_string(), DEFAULT_IOX2_ROOT);
+    }
+
+    #[test]
+    fn map_age_limit_must_cover_a_revolution() {
+        let e = parse("[velodyne]\nrpm = 300\n").expect_err("0.15 s < 1.2 × 0.2 s");
+        let s = e.to_string();
+        assert!(s.contains("planner.map_max_age_s = 0.15"), "{s}");
+        assert!(s.contains("velodyne.rpm = 300"), "{s}");
+        parse("[velodyne]\nrpm = 300\n[planner]\nmap_max_age_s = 0.25\n").expect("long enough");
     }
 
     #[test]

@@ -9,4 +9,5 @@ pub mod faults;
 pub mod grid;
 pub mod ipc;
 pub mod logging;
+pub mod systemd;
 pub mod topics;

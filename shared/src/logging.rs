@@ -1,9 +1,17 @@
 //! Logging setup: `tracing` to stderr, filtered by the config's `log.level` or the `MIMNAV_LOG`
 //! environment variable; iceoryx2's own messages arrive through `tracing` too (its `tracing`
 //! feature), with its level set to match so it does not format what would be filtered out.
+//!
+//! Under systemd, when stderr is the journal (`JOURNAL_STREAM` names stderr's device and inode, as
+//! systemd.exec(5) says to check), events go to the journal natively through `tracing-journald`:
+//! with their priority, their fields as journal fields (`journalctl -o verbose` shows `SEQ=`,
+//! `PROCESSING_US=`, …) and the target and source location. If the journal's socket cannot be
+//! opened, stderr is used without timestamps or colours (the journal stamps each line itself).
 
 use tracing_subscriber::EnvFilter;
 use tracing_subscriber::filter::LevelFilter;
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
 
 /// Environment variable that overrides the configured filter.
 pub const LOG_ENV: &str = "MIMNAV_LOG";
@@ -25,19 +33,62 @@ pub fn init(level: &str) {
         },
     };
     let max = filter.max_level_hint().unwrap_or(LevelFilter::TRACE);
-    let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let installed = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(ansi)
-        .try_init()
-        .is_ok();
+    let journal = stderr_is_journal();
+    let mut journal_error = None;
+    let installed = match journal.then(tracing_journald::layer) {
+        Some(Ok(layer)) => tracing_subscriber::registry()
+            .with(filter)
+            .with(layer)
+            .try_init()
+            .is_ok(),
+        other => {
+            if let Some(Err(e)) = other {
+                journal_error = Some(e);
+            }
+            let ansi = !journal && std::io::IsTerminal::is_terminal(&std::io::stderr());
+            let fmt = tracing_subscriber::fmt()
+                .with_env_filter(filter)
+                .with_writer(std::io::stderr)
+                .with_ansi(ansi);
+            if journal {
+                fmt.without_time().try_init().is_ok()
+            } else {
+                fmt.try_init().is_ok()
+            }
+        }
+    };
+    if let Some(e) = journal_error {
+        tracing::warn!("cannot open the journal's socket, logging to stderr: {e}");
+    }
     if installed {
         iceoryx2::prelude::set_log_level(iceoryx2_level(max));
     }
     if let Some(bad) = bad {
         tracing::warn!("invalid log filter, using `info`: {bad}");
     }
+}
+
+/// Whether stderr is the journal's stream: `JOURNAL_STREAM=<device>:<inode>` of stderr.
+fn stderr_is_journal() -> bool {
+    std::env::var("JOURNAL_STREAM")
+        .ok()
+        .and_then(|v| parse_journal_stream(&v))
+        .is_some_and(|(dev, ino)| {
+            let mut st = std::mem::MaybeUninit::<libc::stat>::uninit();
+            // SAFETY: fstat writes a stat into the buffer it is given, and only reads fd 2
+            let ok = unsafe { libc::fstat(2, st.as_mut_ptr()) } == 0;
+            // SAFETY: fstat succeeded, so the buffer is initialised
+            ok && {
+                let st = unsafe { st.assume_init() };
+                st.st_dev as u64 == dev && st.st_ino as u64 == ino
+            }
+        })
+}
+
+/// `"<device>:<inode>"`, both decimal.
+fn parse_journal_stream(v: &str) -> Option<(u64, u64)> {
+    let (dev, ino) = v.trim().split_once(':')?;
+    Some((dev.parse().ok()?, ino.parse().ok()?))
 }
 
 fn iceoryx2_level(max: LevelFilter) -> iceoryx2::prelude::LogLevel {
@@ -48,5 +99,19 @@ fn iceoryx2_level(max: LevelFilter) -> iceoryx2::prelude::LogLevel {
         LevelFilter::INFO => LogLevel::Info,
         LevelFilter::WARN => LogLevel::Warn,
         _ => LogLevel::Error,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn journal_stream_is_device_colon_inode() {
+        assert_eq!(parse_journal_stream("8:123456"), Some((8, 123456)));
+        assert_eq!(parse_journal_stream(" 66305:2\n"), Some((66305, 2)));
+        assert_eq!(parse_journal_stream("8-123"), None);
+        assert_eq!(parse_journal_stream("x:1"), None);
+        assert_eq!(parse_journal_stream(""), None);
     }
 }

@@ -17,6 +17,7 @@ use mimnav_foliage::{Classifier, FoliageParams};
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, Listening, Svc};
 use mimnav_shared::topics::{FoliageHeader, FoliageReturn, MAX_FOLIAGE_SECTORS};
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
@@ -67,15 +68,20 @@ fn run(config: &Config) -> Result<()> {
     let _scan_guard = waitset
         .attach_notification(scans.listener())
         .map_err(|e| anyhow::anyhow!("cannot wait on lidar/scan2d: {e:?}"))?;
+    let mut sd = Notifier::from_env();
     let _tick = waitset
-        .attach_interval(Duration::from_secs(10))
+        .attach_interval(sd.tick())
         .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
     let mut faults = Faults::new(Duration::from_secs(10));
     let (mut angles, mut ranges) = (Vec::new(), Vec::new());
     let mut out: Vec<FoliageReturn> = Vec::with_capacity(max_returns);
     let (mut seq, mut alarm_on, mut alarmed) = (0u64, false, 0u64);
     let (mut spent_us, mut since_report) = (0u64, 0u64);
+    let mut last_scan = Instant::now();
+    sd.ready("waiting for lidar/scan2d");
     let result = waitset.wait_and_process(|_id| {
+        let now = Instant::now();
+        sd.alive(now);
         let _ = scans.heard();
         loop {
             let sample = match scans.receive() {
@@ -87,6 +93,7 @@ fn run(config: &Config) -> Result<()> {
                 }
             };
             let started = Instant::now();
+            last_scan = started;
             let h = *sample.user_header();
             angles.clear();
             ranges.clear();
@@ -139,6 +146,18 @@ fn run(config: &Config) -> Result<()> {
             seq += 1;
             spent_us += u64::from(us);
             since_report += 1;
+            sd.status(if alarm_on {
+                "classifying; alarm: an obstacle that is not foliage"
+            } else {
+                "classifying; no alarm"
+            });
+        }
+        let quiet = now.saturating_duration_since(last_scan);
+        if quiet >= Duration::from_secs(1) {
+            sd.status(&format!(
+                "stale input: no scan on lidar/scan2d for {} s",
+                quiet.as_secs()
+            ));
         }
         if since_report > 0 && seq % 100 < since_report {
             tracing::debug!(
@@ -152,6 +171,7 @@ fn run(config: &Config) -> Result<()> {
         }
         CallbackProgression::Continue
     });
+    sd.stopping("stopping");
     match result {
         Ok(r) => tracing::info!(
             scans = seq,

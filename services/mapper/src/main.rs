@@ -16,6 +16,7 @@ use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, map_status};
 
 /// The map builder: lidar/points + odom → map/layers + map/plan.
@@ -46,6 +47,7 @@ fn run(config: &Config) -> Result<()> {
     let layers_pub = ipc::layers_publisher(&node, n_layers * grid.len())?;
     let plan_pub = ipc::plan_publisher(&node, grid.len())?;
     let mut mapper = Mapper::new(params);
+    let mut sd = Notifier::from_env();
     tracing::info!(
         cells = grid.cells,
         cell_m = grid.cell_m,
@@ -65,6 +67,9 @@ fn run(config: &Config) -> Result<()> {
     let _odom_guard = waitset
         .attach_notification(odom_sub.listener())
         .map_err(|e| anyhow::anyhow!("cannot wait on odom: {e:?}"))?;
+    let _tick = waitset
+        .attach_interval(sd.tick())
+        .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
     let mut faults = Faults::new(Duration::from_secs(10));
     let mut latest_odom: Option<Odometry> = None;
     let odom_max_age_ns = (config.mapper.odom_max_age_s * 1e9) as u64;
@@ -75,8 +80,16 @@ fn run(config: &Config) -> Result<()> {
     let mut spent_us = 0u64;
     let mut since_report = 0u64;
     let mut last_report = Instant::now();
+    // the odometry state the status line names
+    let mut odom_state = u8::MAX;
+    sd.ready("waiting for lidar/points");
     let result = waitset.wait_and_process(|id| {
+        sd.alive(Instant::now());
         if id.has_missed_deadline(&points_guard) {
+            sd.status(&format!(
+                "stale input: no revolution on lidar/points for {:.1} s",
+                deadline.as_secs_f64()
+            ));
             faults.record(
                 "stale_points",
                 Instant::now(),
@@ -184,6 +197,14 @@ fn run(config: &Config) -> Result<()> {
             seq += 1;
             spent_us += u64::from(processing_us);
             since_report += 1;
+            if status != odom_state || sd.current_status().starts_with("stale input: no rev") {
+                odom_state = status;
+                sd.status(match status {
+                    map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
+                    map_status::ODOM_STALE => "mapping; stale odometry (the glass memory stays put)",
+                    _ => "mapping",
+                });
+            }
         }
         if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
             tracing::info!(
@@ -198,6 +219,7 @@ fn run(config: &Config) -> Result<()> {
         }
         CallbackProgression::Continue
     });
+    sd.stopping("stopping");
     match result {
         Ok(r) => tracing::info!(maps = seq, "stopping ({r:?}); faults: {}", faults.summary()),
         Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),

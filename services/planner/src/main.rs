@@ -4,7 +4,9 @@
 //! dynamic window, with the latest `odom` and `goal`; the result goes out on `cmd_vel`, valid for
 //! `robot.command_validity_s`. Fail safe: without a goal, with stale odometry, with no map for
 //! `planner.map_max_age_s`, or with no feasible motion, the command is zero velocity and its
-//! status says why — also between maps, every 100 ms, so a silent mapper stops the robot.
+//! status says why — also between maps: the map topic has a deadline of `map_max_age_s`, so a
+//! silent mapper stops the robot within that time, and the stop is repeated every 100 ms. The
+//! status also goes to systemd (`STATUS=`), which keeps the watchdog pinged from this loop.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -18,6 +20,7 @@ use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, Listening, Svc};
 use mimnav_shared::topics::{
     FoliageHeader, Goal, Odometry, VelocityCommand, command_flags, command_status, foliage_class,
@@ -49,6 +52,11 @@ struct Commander {
     validity_ns: u64,
     /// [`command_flags`] of the commands sent.
     flags: u8,
+    /// What a `stale input` status is about, for the status line.
+    stale: &'static str,
+    /// (status, flags, stale) the status line was last written for.
+    shown: (u8, u8, &'static str),
+    sd: Notifier,
 }
 
 impl Commander {
@@ -85,6 +93,28 @@ impl Commander {
             tracing::info!(status, v, omega, "command status changed");
             self.last_status = status;
         }
+        let shown = (status, self.flags, self.stale);
+        if shown != self.shown {
+            self.shown = shown;
+            let what = match status {
+                command_status::DRIVING => "driving",
+                command_status::GOAL_REACHED => "goal reached: zero velocity",
+                command_status::BLOCKED => "blocked (no feasible motion): zero velocity",
+                command_status::NO_GOAL => "no goal: zero velocity",
+                _ => "",
+            };
+            let alarm = if self.flags & command_flags::FOLIAGE_ALARM != 0 {
+                "; foliage alarm"
+            } else {
+                ""
+            };
+            let line = if status == command_status::STALE_INPUT {
+                format!("stale input ({}): zero velocity{alarm}", self.stale)
+            } else {
+                format!("{what}{alarm}")
+            };
+            self.sd.status(&line);
+        }
     }
 }
 
@@ -102,11 +132,13 @@ fn run(config: &Config) -> Result<()> {
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<Svc>()
         .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
-    let _plan_guard = waitset
-        .attach_notification(plan_sub.listener())
+    let sd = Notifier::from_env();
+    // a missed deadline on the map is stale input at once, not at the next tick
+    let plan_guard = waitset
+        .attach_deadline(plan_sub.listener(), Duration::from_secs_f64(p.map_max_age_s))
         .map_err(|e| anyhow::anyhow!("cannot wait on map/plan: {e:?}"))?;
     let _tick = waitset
-        .attach_interval(Duration::from_millis(100))
+        .attach_interval(Duration::from_millis(100).min(sd.tick()))
         .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
     let validity_ns = (config.robot.command_validity_s * 1e9) as u64;
     let map_max_age_ns = (p.map_max_age_s * 1e9) as u64;
@@ -125,8 +157,13 @@ fn run(config: &Config) -> Result<()> {
         last_status: u8::MAX,
         validity_ns,
         flags: 0,
+        stale: "",
+        shown: (u8::MAX, 0, ""),
+        sd,
     };
-    let result = waitset.wait_and_process(|_id| {
+    commander.sd.ready("waiting for map/plan");
+    let result = waitset.wait_and_process(|id| {
+        commander.sd.alive(Instant::now());
         let now = ipc::monotonic_ns();
         let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());
         loop {
@@ -196,6 +233,11 @@ fn run(config: &Config) -> Result<()> {
                     Instant::now(),
                     "odometry is missing or stale: stopping",
                 );
+                commander.stale = if odom.is_some() {
+                    "odometry older than planner.odom_max_age_s"
+                } else {
+                    "no odometry"
+                };
                 commander.send(
                     0.0,
                     0.0,
@@ -255,8 +297,12 @@ fn run(config: &Config) -> Result<()> {
                 ),
             }
         }
-        if !planned && now.saturating_sub(last_map_mono) > map_max_age_ns {
+        if !planned
+            && (id.has_missed_deadline(&plan_guard)
+                || now.saturating_sub(last_map_mono) > map_max_age_ns)
+        {
             // no map for too long: keep the robot stopped, and say why
+            commander.stale = "no map on map/plan for planner.map_max_age_s";
             commander.send(
                 0.0,
                 0.0,
@@ -269,6 +315,7 @@ fn run(config: &Config) -> Result<()> {
         }
         CallbackProgression::Continue
     });
+    commander.sd.stopping("stopping");
     match result {
         Ok(r) => tracing::info!(
             commands = commander.seq,

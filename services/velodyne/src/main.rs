@@ -14,6 +14,7 @@ use iceoryx2::prelude::*;
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::{Config, VelodyneInput, toml_quote};
 use mimnav_shared::faults::Faults;
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, Svc, ValuePublisher};
 use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
 use mimnav_velodyne::capture::CaptureReader;
@@ -74,6 +75,9 @@ struct Driver {
     accept_0x21_logged: bool,
     data_port: u16,
     position_port: u16,
+    /// READY, WATCHDOG and STATUS for systemd (a no-op outside it).
+    sd: Notifier,
+    last_datagram: Option<Instant>,
 }
 
 #[derive(Default)]
@@ -121,6 +125,8 @@ impl Driver {
             accept_0x21_logged: false,
             data_port: v.data_port,
             position_port: v.position_port,
+            sd: Notifier::from_env(),
+            last_datagram: None,
         })
     }
 
@@ -255,10 +261,29 @@ impl Driver {
             s.other_traffic,
             self.faults.summary()
         );
+        let status = format!(
+            "{:.1} revolutions/s, {} revolutions, {} faults",
+            (s.revolutions - s.revolutions_at_report) as f64 / secs,
+            s.revolutions,
+            self.faults.total()
+        );
         s.last_report = Some(now);
         s.revolutions_at_report = s.revolutions;
         s.points_at_report = s.points;
         s.packets_at_report = s.data_packets;
+        self.sd.status(&status);
+    }
+
+    /// Once per turn of the loop: the watchdog ping, and a status naming a silent sensor.
+    fn alive(&mut self, now: Instant, silent_after: Duration) {
+        self.sd.alive(now);
+        if let Some(t) = self.last_datagram {
+            let quiet = now.saturating_duration_since(t);
+            if quiet >= silent_after {
+                let status = format!("no VLP-16 datagram for {} s", quiet.as_secs());
+                self.sd.status(&status);
+            }
+        }
     }
 }
 
@@ -356,15 +381,22 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
     }
     let interval = Duration::from_secs_f64(v.stats_interval_s);
     let _tick = waitset
-        .attach_interval(interval)
+        .attach_interval(interval.min(driver.sd.tick()))
         .map_err(|e| anyhow::anyhow!("cannot attach the statistics interval: {e:?}"))?;
     let mut buf = vec![0u8; 2048];
     let mut io_error_logged = false;
+    let listening = format!(
+        "listening on {}",
+        source.data_addr().map(|a| a.to_string()).unwrap_or_default()
+    );
+    driver.sd.ready(&listening);
+    driver.last_datagram = Some(Instant::now());
     let result = waitset.wait_and_process(|_id| {
         let now = Instant::now();
         loop {
             match source.recv(&mut buf) {
                 Ok(Some(r)) => {
+                    driver.last_datagram = Some(now);
                     let host_ns = ipc::realtime_ns();
                     let from = r.from;
                     let is_position = r.port == Port::Position;
@@ -384,8 +416,10 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
             }
         }
         driver.report_if_due(now, interval);
+        driver.alive(now, Duration::from_secs(1));
         CallbackProgression::Continue
     });
+    driver.sd.stopping("stopping");
     if source.rejected() > 0 {
         tracing::info!(
             count = source.rejected(),
@@ -408,6 +442,8 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         Some(v.replay_speed)
     };
     let mut pacer = Pacer::new(speed, (v.replay_max_gap_s * 1e9) as u64);
+    // the loop below waits at most this long at a time, so the watchdog is pinged in long gaps
+    let tick = driver.sd.tick();
     let interval = Duration::from_secs_f64(v.stats_interval_s);
     let mut outcome: Result<()> = Ok(());
     let mut stopped = false;
@@ -420,6 +456,7 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
             "replaying capture"
         );
         pacer.restart();
+        driver.sd.ready(&format!("replaying {}", path.display()));
         loop {
             let datagram = match reader.next() {
                 Ok(Some(d)) => d,
@@ -429,12 +466,17 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
                     break 'passes;
                 }
             };
-            let now = Instant::now();
+            let mut now = Instant::now();
             let due = pacer.due(datagram.ts_ns, now);
-            if due > now && node.wait(due - now).is_err() {
-                stopped = true;
-                break 'passes;
+            while due > now {
+                driver.sd.alive(now);
+                if node.wait((due - now).min(tick)).is_err() {
+                    stopped = true;
+                    break 'passes;
+                }
+                now = Instant::now();
             }
+            driver.sd.alive(now);
             let len = datagram.payload.len();
             let port = datagram.dst_port;
             let is_position = len == POSITION_PACKET_LEN
@@ -463,6 +505,7 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         }
     }
     driver.finish(Instant::now());
+    driver.sd.stopping(if stopped { "stopping" } else { "replay finished" });
     driver.log_summary(if stopped {
         "replay stopped by signal"
     } else {
@@ -472,7 +515,14 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
     driver.scan.end_of_stream()?;
     if !stopped && v.replay_linger_s > 0.0 {
         // let subscribers take the last samples before the publisher goes away
-        let _ = node.wait(Duration::from_secs_f64(v.replay_linger_s));
+        let end = Instant::now() + Duration::from_secs_f64(v.replay_linger_s);
+        loop {
+            let now = Instant::now();
+            driver.sd.alive(now);
+            if now >= end || node.wait((end - now).min(tick)).is_err() {
+                break;
+            }
+        }
     }
     outcome
 }
