@@ -21,7 +21,9 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
+use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::sample::Sample;
+use iceoryx2::waitset::{WaitSetRunError, WaitSetRunResult};
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -99,7 +101,41 @@ fn topic_err(topic: &'static str, e: impl Debug) -> IpcError {
 pub fn node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {
     let node = create_node(config, name)?;
     let _ = node.wait(core::time::Duration::ZERO);
+    restore_fatal_signals();
     Ok(node)
+}
+
+/// iceoryx2's signal handler (installed by the first wait) catches SIGABRT and SIGQUIT as well as
+/// SIGTERM and SIGINT, and only records them. A hung loop would then survive systemd's watchdog
+/// signal (SIGABRT) until `TimeoutAbortSec=` ends it with SIGKILL, and without the core dump the
+/// watchdog's abort is for. Give both back their default action: end the process with a core.
+fn restore_fatal_signals() {
+    for signal in [libc::SIGABRT, libc::SIGQUIT] {
+        // SAFETY: SIG_DFL is always a valid disposition; no handler of ours is replaced
+        unsafe { libc::signal(signal, libc::SIG_DFL) };
+    }
+}
+
+/// Runs `waitset` until SIGTERM or SIGINT asks the process to stop, or `f` returns
+/// [`CallbackProgression::Stop`]. iceoryx2 reports any signal that cuts a wait short as
+/// `Interrupt` — a SIGCONT after a stop, a profiler's SIGPROF — which is not a request to stop:
+/// the wait is resumed (a SIGINT shows as a termination request on the next turn).
+pub fn run_waitset<F>(waitset: &WaitSet<Svc>, mut f: F) -> Result<WaitSetRunResult, WaitSetRunError>
+where
+    F: FnMut(WaitSetAttachmentId<Svc>) -> CallbackProgression,
+{
+    loop {
+        match waitset.wait_and_process(&mut f) {
+            Ok(WaitSetRunResult::Interrupt) => continue,
+            other => return other,
+        }
+    }
+}
+
+/// Sleeps up to `d`; false once SIGTERM or SIGINT asked the process to stop. As with
+/// [`run_waitset`], a sleep cut short by any other signal is not a stop request.
+pub fn sleep(node: &Node<Svc>, d: core::time::Duration) -> bool {
+    !matches!(node.wait(d), Err(NodeWaitFailure::TerminationRequest))
 }
 
 fn create_node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {

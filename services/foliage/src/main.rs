@@ -79,7 +79,7 @@ fn run(config: &Config) -> Result<()> {
     let (mut spent_us, mut since_report) = (0u64, 0u64);
     let mut last_scan = Instant::now();
     sd.ready("waiting for lidar/scan2d");
-    let result = waitset.wait_and_process(|_id| {
+    let result = ipc::run_waitset(&waitset, |_id| {
         let now = Instant::now();
         sd.alive(now);
         let _ = scans.heard();

@@ -83,7 +83,7 @@ fn run(config: &Config) -> Result<()> {
     // the odometry state the status line names
     let mut odom_state = u8::MAX;
     sd.ready("waiting for lidar/points");
-    let result = waitset.wait_and_process(|id| {
+    let result = ipc::run_waitset(&waitset, |id| {
         sd.alive(Instant::now());
         if id.has_missed_deadline(&points_guard) {
             sd.status(&format!(

@@ -4,6 +4,7 @@
 mod demo;
 mod eval;
 mod goal;
+mod install;
 mod procs;
 mod replay;
 mod score_map;
@@ -56,6 +57,9 @@ enum Command {
     Goal(goal::GoalArgs),
     /// Check the config file and print the settings in force.
     CheckConfig,
+    /// Install the stack as system services: binaries, systemd units, the system user, the
+    /// runtime directory and /etc/mimnav (as root; or --root DIR for a package or an image).
+    Install(install::InstallArgs),
 }
 
 fn main() -> ExitCode {
@@ -87,6 +91,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval::run(&config, args),
         Command::Snapshot(args) => snapshot::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
+        Command::Install(args) => install::run(args),
         Command::CheckConfig => {
             println!(
                 "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",

@@ -211,7 +211,7 @@ pub fn run(
             }
         }
     };
-    let run = waitset.wait_and_process(|_id| {
+    let run = ipc::run_waitset(&waitset, |_id| {
         let heard = points.heard();
         drain(&mut tally);
         if heard.end_of_stream {

@@ -162,7 +162,7 @@ fn run(config: &Config) -> Result<()> {
         sd,
     };
     commander.sd.ready("waiting for map/plan");
-    let result = waitset.wait_and_process(|id| {
+    let result = ipc::run_waitset(&waitset, |id| {
         commander.sd.alive(Instant::now());
         let now = ipc::monotonic_ns();
         let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());

@@ -239,7 +239,7 @@ fn run_live(
         if !lockstep {
             let due = anchor + Duration::from_nanos(step.send_ns - epoch_ns);
             let now = Instant::now();
-            if due > now && node.wait(due - now).is_err() {
+            if due > now && !ipc::sleep(&node, due - now) {
                 stopped = true;
                 break;
             }
@@ -340,7 +340,7 @@ fn wait_for_answer(
         if now >= until {
             return Answer::TimedOut;
         }
-        if node.wait(Duration::ZERO).is_err() {
+        if !ipc::sleep(&node, Duration::ZERO) {
             return Answer::Stop;
         }
         cmd.heard_within((until - now).min(Duration::from_millis(50)));

@@ -391,7 +391,7 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
     );
     driver.sd.ready(&listening);
     driver.last_datagram = Some(Instant::now());
-    let result = waitset.wait_and_process(|_id| {
+    let result = ipc::run_waitset(&waitset, |_id| {
         let now = Instant::now();
         loop {
             match source.recv(&mut buf) {
@@ -470,7 +470,7 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
             let due = pacer.due(datagram.ts_ns, now);
             while due > now {
                 driver.sd.alive(now);
-                if node.wait((due - now).min(tick)).is_err() {
+                if !ipc::sleep(node, (due - now).min(tick)) {
                     stopped = true;
                     break 'passes;
                 }
@@ -499,7 +499,7 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         if !v.replay_loop {
             break;
         }
-        if node.wait(Duration::ZERO).is_err() {
+        if !ipc::sleep(node, Duration::ZERO) {
             stopped = true;
             break;
         }
@@ -519,7 +519,7 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         loop {
             let now = Instant::now();
             driver.sd.alive(now);
-            if now >= end || node.wait((end - now).min(tick)).is_err() {
+            if now >= end || !ipc::sleep(node, (end - now).min(tick)) {
                 break;
             }
         }
