@@ -981,3 +981,36 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     drop(manager);
     drop(domain);
 }
+
+#[test]
+fn with_stderr_on_the_journal_a_service_logs_to_the_journal_or_says_why_not() {
+    use std::os::unix::fs::MetadataExt;
+    let t = TempDir::new("journal");
+    let err_path = t.0.join("stderr");
+    let err = std::fs::File::create(&err_path).expect("stderr file");
+    let meta = std::fs::metadata(&err_path).expect("meta");
+    let domain = PrivateDomain::new("e2ejournal");
+    let mut p = crate::util::Proc::start(
+        Command::new(crate::util::bin("mimnav-foliage"))
+            .args(crate::util::config_args(&domain))
+            .env("JOURNAL_STREAM", format!("{}:{}", meta.dev(), meta.ino()))
+            .env_remove("MIMNAV_LOG")
+            .stderr(err),
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    let status = p.terminate(Duration::from_secs(2)).expect("stops on SIGTERM");
+    assert!(status.success(), "{status}");
+    let out = std::fs::read_to_string(&err_path).expect("read");
+    if Path::new("/run/systemd/journal/socket").exists() {
+        // the events went to the journal, not to the stream
+        assert!(!out.contains("topics open"), "{out}");
+    } else {
+        assert!(out.contains("cannot open the journal's socket"), "{out}");
+        assert!(out.contains("topics open"), "{out}");
+        // the journal stamps lines itself: no timestamps, no colours
+        for line in out.lines() {
+            assert!(!line.starts_with(|c: char| c.is_ascii_digit()), "{line}");
+            assert!(!line.contains('\u{1b}'), "{line}");
+        }
+    }
+}

@@ -107,6 +107,23 @@ mod tests {
     use super::*;
 
     #[test]
+    fn stderr_is_the_journal_only_when_journal_stream_names_it() {
+        let mut st = std::mem::MaybeUninit::<libc::stat>::uninit();
+        // SAFETY: fstat writes into the buffer it is given
+        assert_eq!(unsafe { libc::fstat(2, st.as_mut_ptr()) }, 0);
+        // SAFETY: fstat succeeded
+        let st = unsafe { st.assume_init() };
+        // SAFETY: nextest runs each test in a process of its own; nothing else reads it here
+        unsafe { std::env::set_var("JOURNAL_STREAM", format!("{}:{}", st.st_dev, st.st_ino)) };
+        assert!(stderr_is_journal());
+        // inherited by a child whose stderr went elsewhere: not the journal
+        unsafe { std::env::set_var("JOURNAL_STREAM", format!("{}:{}", st.st_dev, st.st_ino + 1)) };
+        assert!(!stderr_is_journal());
+        unsafe { std::env::remove_var("JOURNAL_STREAM") };
+        assert!(!stderr_is_journal());
+    }
+
+    #[test]
     fn journal_stream_is_device_colon_inode() {
         assert_eq!(parse_journal_stream("8:123456"), Some((8, 123456)));
         assert_eq!(parse_journal_stream(" 66305:2\n"), Some((66305, 2)));
