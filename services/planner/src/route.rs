@@ -62,7 +62,12 @@ pub struct Route {
     padded: Vec<bool>,
     /// Route length to the goal from each coarse cell's centre, m (infinite: no route).
     dist: Vec<f32>,
-    heap: BinaryHeap<Reverse<(u32, u32)>>,
+    /// (route length bits << 32) | cell: one integer compare orders by length (non-negative
+    /// floats order as their bits do)
+    heap: BinaryHeap<Reverse<u64>>,
+    /// Scratch rows of the coarse reduction.
+    row_obstacle: Vec<u8>,
+    row_cost: Vec<u8>,
 }
 
 impl Default for Route {
@@ -78,6 +83,8 @@ impl Default for Route {
             padded: Vec::new(),
             dist: Vec::new(),
             heap: BinaryHeap::new(),
+            row_obstacle: Vec::new(),
+            row_cost: Vec::new(),
         }
     }
 }
@@ -127,25 +134,43 @@ impl Route {
         let mut obstacle = std::mem::take(&mut self.clear);
         obstacle.clear();
         obstacle.resize(m, self.coarse.cell_m * cells as f32);
-        for r in 0..n {
-            let row = (r / factor) * cells;
-            let (class_row, cost_row) = (&classes[r * n..(r + 1) * n], &cost[r * n..(r + 1) * n]);
-            for (kc, (cl, co)) in class_row
+        // first down the map rows of each coarse row, element by element (the compiler
+        // vectorises this pass over every map cell), then along the one reduced row
+        let (mut any_obstacle, mut cheapest) = (
+            std::mem::take(&mut self.row_obstacle),
+            std::mem::take(&mut self.row_cost),
+        );
+        for (kr, rows) in classes[..n * n].chunks(factor * n).enumerate() {
+            any_obstacle.clear();
+            any_obstacle.resize(n, 0);
+            cheapest.clear();
+            cheapest.resize(n, u8::MAX);
+            let cost_rows = &cost[kr * factor * n..kr * factor * n + rows.len()];
+            for (cl, co) in rows.chunks(n).zip(cost_rows.chunks(n)) {
+                for (((o, m), &c), &w) in any_obstacle
+                    .iter_mut()
+                    .zip(cheapest.iter_mut())
+                    .zip(cl)
+                    .zip(co)
+                {
+                    *o |= u8::from(c == cell_class::SOLID) | u8::from(c == cell_class::GLASS);
+                    *m = (*m).min(w);
+                }
+            }
+            let row = kr * cells;
+            for (kc, (o, m)) in any_obstacle
                 .chunks(factor)
-                .zip(cost_row.chunks(factor))
+                .zip(cheapest.chunks(factor))
                 .enumerate()
             {
-                let k = row + kc;
-                if cl
-                    .iter()
-                    .any(|&c| c == cell_class::SOLID || c == cell_class::GLASS)
-                {
-                    obstacle[k] = 0.0;
+                if o.iter().any(|&o| o != 0) {
+                    obstacle[row + kc] = 0.0;
                 }
-                let cheapest = co.iter().copied().min().unwrap_or(u8::MAX);
-                self.weight[k] = self.weight[k].min(cheapest);
+                self.weight[row + kc] = m.iter().copied().min().unwrap_or(u8::MAX);
             }
         }
+        self.row_obstacle = any_obstacle;
+        self.row_cost = cheapest;
         chamfer(&mut obstacle, cells, self.coarse.cell_m);
         // Optimistic: a coarse cell can be crossed when it holds no obstacle and its centre is
         // within half a coarse cell of the clearance the footprint needs, so every door the
@@ -201,9 +226,9 @@ impl Route {
             };
             (dr * wi + dc, b1, b2, dr * ci + dc, lengths[j])
         });
-        while let Some(Reverse((d_bits, k))) = self.heap.pop() {
-            let d = f32::from_bits(d_bits);
-            let k = k as usize;
+        while let Some(Reverse(entry)) = self.heap.pop() {
+            let d = f32::from_bits((entry >> 32) as u32);
+            let k = (entry & 0xffff_ffff) as usize;
             if d > self.dist[k] {
                 continue;
             }
@@ -220,7 +245,8 @@ impl Route {
                 let nd = d + len * (1.0 + scale * f32::from(self.weight[kk]));
                 if nd < self.dist[kk] {
                     self.dist[kk] = nd;
-                    self.heap.push(Reverse((nd.to_bits(), kk as u32)));
+                    self.heap
+                        .push(Reverse(u64::from(nd.to_bits()) << 32 | kk as u64));
                 }
             }
         }
@@ -229,7 +255,8 @@ impl Route {
     fn seed(&mut self, k: usize, d: f32) {
         if self.open[k] && d < self.dist[k] {
             self.dist[k] = d;
-            self.heap.push(Reverse((d.to_bits(), k as u32)));
+            self.heap
+                .push(Reverse(u64::from(d.to_bits()) << 32 | k as u64));
         }
     }
 
@@ -251,6 +278,16 @@ impl Route {
         }
         let (r0, c0) = (u.floor() as i32, v.floor() as i32);
         let (fu, fv) = (u - r0 as f32, v - c0 as f32);
+        if r0 >= 0 && c0 >= 0 && r0 + 1 < n && c0 + 1 < n {
+            // inside: no clamping (the common case, every rollout step)
+            let k = (r0 * n + c0) as usize;
+            let (d00, d01) = (self.dist[k], self.dist[k + 1]);
+            let (d10, d11) = (self.dist[k + n as usize], self.dist[k + n as usize + 1]);
+            if d00.is_finite() && d01.is_finite() && d10.is_finite() && d11.is_finite() {
+                return (1.0 - fu) * ((1.0 - fv) * d00 + fv * d01)
+                    + fu * ((1.0 - fv) * d10 + fv * d11);
+            }
+        }
         let at = |r: i32, c: i32| {
             let (r, c) = (r.clamp(0, n - 1), c.clamp(0, n - 1));
             self.dist[(r * n + c) as usize]
