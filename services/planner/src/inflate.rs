@@ -131,28 +131,47 @@ pub fn plan_cost(
     passable: u8,
     out: &mut Vec<u8>,
 ) {
+    let n = grid.cells;
+    let classes = &classes[..classes.len().min(n * n)];
+    // Work in a grid padded by the kernel's reach on every side, so a tap needs no bounds check,
+    // then move the inner part to the front (every row moves towards the start, so in place).
+    let reach = kernel.map_or(0, |k| {
+        k.taps
+            .iter()
+            .map(|&(dr, dc, _)| dr.unsigned_abs().max(dc.unsigned_abs()) as usize)
+            .max()
+            .unwrap_or(0)
+    });
+    let w = n + 2 * reach;
     out.clear();
-    out.resize(classes.len(), 0);
-    let n = grid.cells as i32;
-    for (i, &class) in classes.iter().enumerate() {
-        match class {
-            cell_class::SOLID | cell_class::GLASS => {
-                out[i] = 255;
-                if let Some(k) = kernel {
-                    let (r, c) = ((i / grid.cells) as i32, (i % grid.cells) as i32);
-                    for &(dr, dc, cost) in &k.taps {
-                        let (rr, cc) = (r + dr, c + dc);
-                        if rr >= 0 && cc >= 0 && rr < n && cc < n {
-                            let j = (rr * n + cc) as usize;
+    out.resize(w * w, 0);
+    let wi = w as isize;
+    for (r, row) in classes.chunks(n).enumerate() {
+        let base = (r + reach) * w + reach;
+        for (c, &class) in row.iter().enumerate() {
+            let i = base + c;
+            match class {
+                cell_class::SOLID | cell_class::GLASS => {
+                    out[i] = 255;
+                    if let Some(k) = kernel {
+                        for &(dr, dc, cost) in &k.taps {
+                            let j = (i as isize + dr as isize * wi + dc as isize) as usize;
                             out[j] = out[j].max(cost);
                         }
                     }
                 }
+                cell_class::PASSABLE => out[i] = out[i].max(passable),
+                _ => {}
             }
-            cell_class::PASSABLE => out[i] = out[i].max(passable),
-            _ => {}
         }
     }
+    if reach > 0 {
+        for r in 0..n {
+            let from = (r + reach) * w + reach;
+            out.copy_within(from..from + n, r * n);
+        }
+    }
+    out.truncate(classes.len());
 }
 
 #[cfg(test)]
