@@ -142,6 +142,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
                 cell_m: params.route_cell_m,
                 radius_m: (params.dwa.radius_m + params.dwa.margin_m) as f32,
                 cost_weight: params.route_cost_weight,
+                settle_within_m: reach,
             },
             grid,
             classes,

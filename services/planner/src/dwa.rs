@@ -360,6 +360,7 @@ mod tests {
                 cell_m: 0.2,
                 radius_m: (p.radius_m + p.margin_m) as f32,
                 cost_weight: 1.0,
+                settle_within_m: 0.0,
             },
             grid,
             classes,

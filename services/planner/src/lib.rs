@@ -183,6 +183,7 @@ impl Planner {
                     cell_m: p.route_cell_m,
                     radius_m: (p.dwa.radius_m + p.dwa.margin_m) as f32,
                     cost_weight: p.route_cost_weight,
+                    settle_within_m: reach as f32,
                 },
                 grid,
                 classes,

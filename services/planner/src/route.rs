@@ -68,6 +68,8 @@ pub struct Route {
     /// Scratch rows of the coarse reduction.
     row_obstacle: Vec<u8>,
     row_cost: Vec<u8>,
+    /// Cells whose final length is still wanted (`settle_within_m`).
+    wanted: Vec<bool>,
 }
 
 impl Default for Route {
@@ -85,6 +87,7 @@ impl Default for Route {
             heap: BinaryHeap::new(),
             row_obstacle: Vec::new(),
             row_cost: Vec::new(),
+            wanted: Vec::new(),
         }
     }
 }
@@ -98,6 +101,11 @@ pub struct RouteParams {
     pub radius_m: f32,
     /// Extra cost per unit of planning cost (0–1) of the cells a route enters.
     pub cost_weight: f32,
+    /// The search stops once every open cell within this distance of the robot (the map's
+    /// centre) has its final length — all the dynamic window's rollouts can ask for (their reach
+    /// plus two coarse cells for the interpolation). Cells beyond may keep longer, provisional
+    /// lengths. 0: the whole map.
+    pub settle_within_m: f32,
 }
 
 impl Route {
@@ -226,11 +234,32 @@ impl Route {
             };
             (dr * wi + dc, b1, b2, dr * ci + dc, lengths[j])
         });
+        // the cells the rollouts can reach: once they are all settled, the rest is not needed
+        self.wanted.clear();
+        self.wanted.resize(m, p.settle_within_m <= 0.0);
+        let mut wanted = 0usize;
+        if p.settle_within_m > 0.0 {
+            let reach = p.settle_within_m + 2.0 * cs.cell_m;
+            for (k, (want, &open)) in self.wanted.iter_mut().zip(&self.open).enumerate() {
+                let (x, y) = cs.center_of(k / cells, k % cells);
+                if open && x.hypot(y) <= reach {
+                    *want = true;
+                    wanted += 1;
+                }
+            }
+        }
         while let Some(Reverse(entry)) = self.heap.pop() {
             let d = f32::from_bits((entry >> 32) as u32);
             let k = (entry & 0xffff_ffff) as usize;
             if d > self.dist[k] {
                 continue;
+            }
+            if p.settle_within_m > 0.0 && self.wanted[k] {
+                self.wanted[k] = false;
+                wanted -= 1;
+                if wanted == 0 {
+                    break;
+                }
             }
             let kp = ((k / cells + 2) * w + k % cells + 2) as isize;
             for &(to, b1, b2, step, len) in &moves {
@@ -330,6 +359,10 @@ mod tests {
     use super::*;
 
     fn build(classes: &[u8], grid: GridSpec, goal: (f32, f32)) -> Route {
+        build_within(classes, grid, goal, 0.0)
+    }
+
+    fn build_within(classes: &[u8], grid: GridSpec, goal: (f32, f32), within: f32) -> Route {
         let cost: Vec<u8> = classes
             .iter()
             .map(|&c| if c == cell_class::PASSABLE { 51 } else { 0 })
@@ -340,6 +373,7 @@ mod tests {
                 cell_m: 0.2,
                 radius_m: 0.2,
                 cost_weight: 1.0,
+                settle_within_m: within,
             },
             grid,
             classes,
@@ -364,6 +398,36 @@ mod tests {
                 f(x, y)
             })
             .collect()
+    }
+
+    #[test]
+    fn a_search_stopped_once_the_window_is_settled_gives_the_same_lengths_there() {
+        // a wall with a gap and a grass patch between the robot and a goal beyond the map
+        let classes = classes(|x, y| {
+            if (1.5..1.7).contains(&x) && y > -1.0 {
+                cell_class::SOLID
+            } else if (-1.0..0.5).contains(&x) && (0.5..2.0).contains(&y) {
+                cell_class::PASSABLE
+            } else {
+                cell_class::FREE
+            }
+        });
+        for goal in [(8.0, 3.0), (3.0, 0.0), (-2.0, -4.0)] {
+            let full = build(&classes, grid(), goal);
+            let part = build_within(&classes, grid(), goal, 1.5);
+            for i in -40..=40 {
+                for j in -40..=40 {
+                    let (x, y) = (i as f32 * 0.05, j as f32 * 0.05);
+                    let (a, b) = (full.value(x, y), part.value(x, y));
+                    if x.hypot(y) <= 1.5 {
+                        assert_eq!(a, b, "goal {goal:?} at ({x}, {y})");
+                    }
+                }
+            }
+            // and it did stop early: some cells far away keep provisional lengths
+            let unsettled = full.dist.iter().zip(&part.dist).filter(|(a, b)| a != b).count();
+            assert!(unsettled > 0, "goal {goal:?}");
+        }
     }
 
     #[test]
@@ -465,6 +529,7 @@ mod tests {
                 cell_m: 0.2,
                 radius_m: 0.2,
                 cost_weight: 1.0,
+                settle_within_m: 1.0,
             },
             grid(),
             &[],
