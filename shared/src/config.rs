@@ -137,7 +137,7 @@ impl Default for FoliageConfig {
             range_error_b_m: 0.03,
             d_min_m: 0.3,
             d_max_m: 3.0,
-            window_deg: 0.8,
+            window_deg: 0.4,
             sector_deg: 10.0,
             thin_window: 9,
             thin_min: 3,

@@ -3,6 +3,7 @@
 
 mod demo;
 mod eval;
+mod foliage_eval;
 mod goal;
 mod install;
 mod procs;
@@ -51,6 +52,10 @@ enum Command {
     /// uniform inflation) and the two baselines × seeds, lock-step in-process; success rate,
     /// normalised trajectory length, F-score, trajectory plots.
     Eval(eval::EvalArgs),
+    /// The foliage classifier's own evaluation (issue 6): false alarms per 1000 scans in pure
+    /// grass, and the share of scans in which a visible trunk or rock raises the alarm, with the
+    /// delay, on simulated worlds, standing and moving, lock-step in-process.
+    FoliageEval(foliage_eval::FoliageEvalArgs),
     /// Write the next map the mapper publishes as a PNG, in the paper's colours.
     Snapshot(snapshot::SnapshotArgs),
     /// Send a navigation goal (odometry frame) to the running planner.
@@ -89,6 +94,9 @@ fn main() -> ExitCode {
         Command::Demo(args) => demo::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
         Command::Eval(args) => eval::run(&config, args),
+        Command::FoliageEval(args) => {
+            foliage_eval::run(&config, config_path.as_deref(), &cli.set, args)
+        }
         Command::Snapshot(args) => snapshot::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
         Command::Install(args) => install::run(args),

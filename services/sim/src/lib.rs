@@ -290,6 +290,12 @@ impl Sim {
         (self.scene.goal[0] - p.x).hypot(self.scene.goal[1] - p.y)
     }
 
+    /// The beams `laser` (firing order) fires in the next [`Sim::step`], from the current pose,
+    /// in firing order: one per firing, as the driver's planar scan has one return per firing.
+    pub fn next_beams(&self, laser: usize, out: &mut Vec<lidar::Beam>) {
+        self.lidar.next_beams(self.base.pose, laser, out);
+    }
+
     /// Casts the next packet from the current pose, then moves the base for one packet period.
     pub fn step(&mut self) -> Step {
         let first_firing_ns = self.lidar.now_ns();

@@ -132,7 +132,7 @@ impl Vlp16 {
                 let t_seq = t_block + seq as u64 * SEQUENCE_NS;
                 self.prefilter(scene, pose, self.azimuth_deg(t_seq));
                 for laser in 0..LASERS {
-                    let t_fire = t_seq + laser as u64 * LASER_NS;
+                    let t_fire = firing_ns(t0, k, seq, laser);
                     let (a, b) = self.fire(scene, pose, laser, self.azimuth_deg(t_fire));
                     chans_a[seq * LASERS + laser] = a;
                     chans_b[seq * LASERS + laser] = b;
@@ -148,6 +148,38 @@ impl Vlp16 {
         let ts_us = ((self.epoch_ns + t0) / 1000 % 3_600_000_000) as u32;
         self.elapsed_ns += self.packet_period_ns();
         encode_data_packet(ts_us, self.config.return_mode, self.config.product, &blocks)
+    }
+
+    /// The beams `laser` fires in the next packet from `pose`, in firing order: the very rays
+    /// [`Vlp16::next_packet`] casts for it (origin, direction and azimuth), for ground truth
+    /// about what one laser can see (`mimnav foliage-eval`). `out` is cleared first; the
+    /// sensor's clock does not move.
+    pub fn next_beams(&self, pose: Pose, laser: usize, out: &mut Vec<Beam>) {
+        out.clear();
+        let laser = laser % LASERS;
+        let dual = self.config.return_mode == return_mode::DUAL;
+        let firing_blocks = if dual { BLOCKS / 2 } else { BLOCKS };
+        for k in 0..firing_blocks {
+            for seq in 0..2 {
+                let az_deg = self.azimuth_deg(firing_ns(self.elapsed_ns, k, seq, laser));
+                out.push(Beam {
+                    origin: [pose.x, pose.y, self.config.sensor_height_m],
+                    dir: self.direction(pose, laser, az_deg),
+                    azimuth_deg: az_deg,
+                });
+            }
+        }
+    }
+
+    /// Unit direction of `laser`'s beam at azimuth `az_deg` (clockwise from forward) from `pose`.
+    fn direction(&self, pose: Pose, laser: usize, az_deg: f64) -> [f64; 3] {
+        let heading = pose.yaw - az_deg.to_radians();
+        let (s, c) = heading.sin_cos();
+        [
+            self.cos_elev[laser] * c,
+            self.cos_elev[laser] * s,
+            self.sin_elev[laser],
+        ]
     }
 
     /// Objects whose bounding circle the beam at azimuth `az_deg` passes near.
@@ -178,13 +210,7 @@ impl Vlp16 {
         laser: usize,
         az_deg: f64,
     ) -> ((u16, u8), (u16, u8)) {
-        let heading = pose.yaw - az_deg.to_radians();
-        let (s, c) = heading.sin_cos();
-        let d = [
-            self.cos_elev[laser] * c,
-            self.cos_elev[laser] * s,
-            self.sin_elev[laser],
-        ];
+        let d = self.direction(pose, laser, az_deg);
         let o = [pose.x, pose.y, self.config.sensor_height_m];
         let echoes = self.caster.cast(
             scene,
@@ -237,6 +263,23 @@ impl Vlp16 {
         let sentence = format!("${body}*{checksum:02X}");
         encode_position_packet(((t_ns / 1000) % 3_600_000_000) as u32, 2, &sentence)
     }
+}
+
+/// Time of `laser`'s firing in sequence `seq` (0 or 1) of firing block `k` of the packet whose
+/// first firing is at `t0_ns` (ns since the sensor's epoch).
+fn firing_ns(t0_ns: u64, k: usize, seq: usize, laser: usize) -> u64 {
+    t0_ns + k as u64 * BLOCK_NS + seq as u64 * SEQUENCE_NS + laser as u64 * LASER_NS
+}
+
+/// One laser firing's beam (see [`Vlp16::next_beams`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Beam {
+    /// The sensor's optical centre, m (world frame).
+    pub origin: [f64; 3],
+    /// Unit direction (world frame).
+    pub dir: [f64; 3],
+    /// Azimuth of the firing, degrees clockwise from forward, in [0, 360).
+    pub azimuth_deg: f64,
 }
 
 /// (year, month, day) of a day count since 1970-01-01 (H. Hinnant's algorithm).
