@@ -75,7 +75,8 @@ fn install_places_every_file_and_keeps_an_edited_config() {
     let o = install(&t.0);
     assert!(o.status.success(), "{}", text(&o));
     for s in SERVICES {
-        let unit = t.0.join(format!("usr/lib/systemd/system/mimnav-{s}.service"));
+        let unit =
+            t.0.join(format!("usr/lib/systemd/system/mimnav-{s}.service"));
         let repo = root().join(format!("systemd/system/mimnav-{s}.service"));
         assert_eq!(
             std::fs::read_to_string(&unit).expect("unit"),
@@ -105,8 +106,10 @@ fn install_places_every_file_and_keeps_an_edited_config() {
     );
     let tmpfiles = std::fs::read_to_string(t.0.join("usr/lib/tmpfiles.d/mimnav.conf")).unwrap();
     assert!(
-        tmpfiles.lines().any(|l| l.starts_with("d")
-            && l.split_whitespace().nth(1) == Some("/run/mimnav/iceoryx2")),
+        tmpfiles
+            .lines()
+            .any(|l| l.starts_with("d")
+                && l.split_whitespace().nth(1) == Some("/run/mimnav/iceoryx2")),
         "{tmpfiles}"
     );
     // a second install keeps the owner's edits and leaves the shipped config beside them
@@ -296,7 +299,10 @@ fn user_unit(
         }
     }
     assert!(exec_done, "{service}: no `{exec_from}` line to rewrite");
-    assert!(rw_done, "{service}: no `ReadWritePaths=/run/mimnav` line to rewrite");
+    assert!(
+        rw_done,
+        "{service}: no `ReadWritePaths=/run/mimnav` line to rewrite"
+    );
     out
 }
 
@@ -370,7 +376,15 @@ impl Manager {
         "#;
         let out = std::fs::File::create(t.join("manager.out")).map_err(|e| e.to_string())?;
         let child = Command::new("unshare")
-            .args(["--mount", "--propagation", "private", "--", "/bin/sh", "-ec", script])
+            .args([
+                "--mount",
+                "--propagation",
+                "private",
+                "--",
+                "/bin/sh",
+                "-ec",
+                script,
+            ])
             .env_clear()
             .env("PATH", "/usr/sbin:/usr/bin:/sbin:/bin")
             .env("HOME", t.join("home"))
@@ -591,7 +605,11 @@ impl Taps {
     }
 
     /// Polls until `done(self)` or `timeout`; the time it took, or None.
-    fn until(&mut self, timeout: Duration, mut done: impl FnMut(&Taps) -> bool) -> Option<Duration> {
+    fn until(
+        &mut self,
+        timeout: Duration,
+        mut done: impl FnMut(&Taps) -> bool,
+    ) -> Option<Duration> {
         let t0 = Instant::now();
         while t0.elapsed() < timeout {
             self.poll();
@@ -620,7 +638,7 @@ fn odom_and_goal(config: Config, stop: Arc<AtomicBool>) -> std::thread::JoinHand
                 rx_mono_ns: now,
                 ..Odometry::default()
             });
-            if k % 10 == 0 {
+            if k.is_multiple_of(10) {
                 let _ = goal.publish(Goal {
                     seq: k / 10,
                     stamp_mono_ns: now,
@@ -643,11 +661,12 @@ fn ms(d: Duration) -> f64 {
 fn gone(pid: i32) -> bool {
     match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
         Err(_) => true,
-        Ok(s) => s
-            .rsplit(')')
-            .next()
-            .and_then(|r| r.split_whitespace().next())
-            == Some("Z"),
+        Ok(s) => {
+            s.rsplit(')')
+                .next()
+                .and_then(|r| r.split_whitespace().next())
+                == Some("Z")
+        }
     }
 }
 
@@ -662,7 +681,13 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     };
     let t = TempDir::new("e2e-systemd");
     let run_dir = t.0.join("run");
-    for d in ["home", "runtime", "config/systemd/user", "run/iceoryx2", "logs"] {
+    for d in [
+        "home",
+        "runtime",
+        "config/systemd/user",
+        "run/iceoryx2",
+        "logs",
+    ] {
         std::fs::create_dir_all(t.0.join(d)).expect("folder");
     }
     std::fs::set_permissions(t.0.join("runtime"), std::fs::Permissions::from_mode(0o700)).unwrap();
@@ -676,9 +701,8 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         root: run_dir.join("iceoryx2"),
         prefix: format!("mtsd{}_", std::process::id()),
     };
-    let config = domain.apply(
-        Config::resolve(Some(&inst.join("etc/mimnav/mimnav.toml")), &[]).expect("config"),
-    );
+    let config = domain
+        .apply(Config::resolve(Some(&inst.join("etc/mimnav/mimnav.toml")), &[]).expect("config"));
     let home_like = |p: &Path| {
         ["/home", "/root", "/run/user"]
             .iter()
@@ -734,10 +758,13 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         SERVICES
             .iter()
             .map(|s| {
-                let l = std::fs::read_to_string(t.0.join(format!("logs/{s}.log")))
-                    .unwrap_or_default();
+                let l =
+                    std::fs::read_to_string(t.0.join(format!("logs/{s}.log"))).unwrap_or_default();
                 let tail: Vec<&str> = l.lines().rev().take(8).collect();
-                format!("--- {s}:\n{}", tail.into_iter().rev().collect::<Vec<_>>().join("\n"))
+                format!(
+                    "--- {s}:\n{}",
+                    tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+                )
             })
             .collect::<Vec<_>>()
             .join("\n")
@@ -755,8 +782,14 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     for s in SERVICES {
         let u = format!("mimnav-{s}.service");
         assert_eq!(manager.prop(&u, "ActiveState"), "active", "{u}\n{}", logs());
-        let exec: f64 = manager.prop(&u, "ExecMainStartTimestampMonotonic").parse().unwrap();
-        let ready: f64 = manager.prop(&u, "ActiveEnterTimestampMonotonic").parse().unwrap();
+        let exec: f64 = manager
+            .prop(&u, "ExecMainStartTimestampMonotonic")
+            .parse()
+            .unwrap();
+        let ready: f64 = manager
+            .prop(&u, "ActiveEnterTimestampMonotonic")
+            .parse()
+            .unwrap();
         writeln!(
             report,
             "{u}: start → READY {:.0} ms, status \"{}\"",
@@ -779,7 +812,10 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     // the planner drives (or is blocked), it is not stale: there are a map, odometry and a goal
     let fresh = |c: &VelocityCommand| c.status != command_status::STALE_INPUT;
     assert!(
-        taps.until(Duration::from_secs(3), |t| t.cmds.last().is_some_and(|(_, c)| fresh(c)))
+        taps.until(Duration::from_secs(3), |t| t
+            .cmds
+            .last()
+            .is_some_and(|(_, c)| fresh(c)))
             .is_some(),
         "commands: {:?}",
         taps.cmds.iter().rev().take(3).collect::<Vec<_>>()
@@ -797,11 +833,19 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     taps.poll();
     let counts: Vec<u64> = TOPICS.iter().map(|t| taps.count(t)).collect();
     let still = taps.until(Duration::from_secs(3), |t| {
-        TOPICS.iter().zip(&counts).all(|(topic, &n)| t.count(topic) >= n + 3)
+        TOPICS
+            .iter()
+            .zip(&counts)
+            .all(|(topic, &n)| t.count(topic) >= n + 3)
     });
     for (s, &pid) in SERVICES.iter().zip(&pids) {
         let u = format!("mimnav-{s}.service");
-        assert_eq!(manager.main_pid(&u), pid, "{u} still runs after SIGCONT\n{}", logs());
+        assert_eq!(
+            manager.main_pid(&u),
+            pid,
+            "{u} still runs after SIGCONT\n{}",
+            logs()
+        );
     }
     assert!(still.is_some(), "data after SIGCONT: {:?}", taps.seen);
 
@@ -835,7 +879,10 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         let new = manager.main_pid(&u);
         let n1: u32 = manager.prop(&u, "NRestarts").parse().unwrap();
         let Some(_) = back else {
-            panic!("{u}: no {topic} within 5 s of SIGKILL (NRestarts {n0}→{n1})\n{}", logs());
+            panic!(
+                "{u}: no {topic} within 5 s of SIGKILL (NRestarts {n0}→{n1})\n{}",
+                logs()
+            );
         };
         let took = t_kill.elapsed();
         writeln!(
@@ -846,7 +893,10 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         .unwrap();
         assert_eq!(n1, n0 + 1, "{u}: one restart");
         assert!(new != old && new > 0, "{u}: a new process");
-        assert!(took <= Duration::from_secs(1), "{u}: data again after {took:?}");
+        assert!(
+            took <= Duration::from_secs(1),
+            "{u}: data again after {took:?}"
+        );
         if s == "mapper" {
             let stale = stale_after.expect("a stale-input command while the mapper was down");
             writeln!(
@@ -876,7 +926,11 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
             None
         }
     });
-    writeln!(report, "planner status with the mapper stopped: {stale_status:?}").unwrap();
+    writeln!(
+        report,
+        "planner status with the mapper stopped: {stale_status:?}"
+    )
+    .unwrap();
     assert!(stale_status.is_some_and(|s| s.contains("no map")));
     let o = manager.systemctl(&["start", "mimnav-mapper.service"]);
     assert!(o.status.success(), "{}", text(&o));
@@ -920,7 +974,11 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         logs()
     );
     assert!(result.is_empty() || result == "watchdog", "Result={result}");
-    assert!(back.is_some(), "map/plan after the watchdog restart\n{}", logs());
+    assert!(
+        back.is_some(),
+        "map/plan after the watchdog restart\n{}",
+        logs()
+    );
     assert_eq!(n1, n0 + 1);
 
     // 4. stop: SIGTERM ends every service cleanly within a second
@@ -939,9 +997,16 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         false
     });
     let stopped_after = t_stop.elapsed();
-    writeln!(report, "stop mimnav.target: every service gone after {:.0} ms", ms(stopped_after))
-        .unwrap();
-    assert!(all_gone && stopped_after <= Duration::from_secs(1), "{stopped_after:?}");
+    writeln!(
+        report,
+        "stop mimnav.target: every service gone after {:.0} ms",
+        ms(stopped_after)
+    )
+    .unwrap();
+    assert!(
+        all_gone && stopped_after <= Duration::from_secs(1),
+        "{stopped_after:?}"
+    );
     for s in SERVICES {
         let u = format!("mimnav-{s}.service");
         let until = Instant::now() + Duration::from_secs(2);
@@ -960,7 +1025,11 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     // 5. nothing left: no service process, no iceoryx2 node, no shared memory but the one
     // global management segment iceoryx2 keeps per prefix by design (removed with the domain)
     let manager_pid = manager.child.id() as i32;
-    let left: Vec<i32> = manager.pids().into_iter().filter(|&p| p != manager_pid).collect();
+    let left: Vec<i32> = manager
+        .pids()
+        .into_iter()
+        .filter(|&p| p != manager_pid)
+        .collect();
     assert!(left.is_empty(), "processes left: {left:?}");
     let mut nodes = Vec::new();
     let _ = iceoryx2::prelude::Node::<ipc::Svc>::list(&config.iceoryx2, |state| {
@@ -998,7 +1067,9 @@ fn with_stderr_on_the_journal_a_service_logs_to_the_journal_or_says_why_not() {
             .stderr(err),
     );
     std::thread::sleep(Duration::from_millis(500));
-    let status = p.terminate(Duration::from_secs(2)).expect("stops on SIGTERM");
+    let status = p
+        .terminate(Duration::from_secs(2))
+        .expect("stops on SIGTERM");
     assert!(status.success(), "{status}");
     let out = std::fs::read_to_string(&err_path).expect("read");
     if Path::new("/run/systemd/journal/socket").exists() {

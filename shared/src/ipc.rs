@@ -16,12 +16,12 @@
 
 use std::fmt::Debug;
 
+use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::sample::Sample;
 use iceoryx2::waitset::{WaitSetRunError, WaitSetRunResult};
 

@@ -69,6 +69,8 @@ pub fn init(level: &str) {
 }
 
 /// Whether stderr is the journal's stream: `JOURNAL_STREAM=<device>:<inode>` of stderr.
+// dev_t and ino_t are not u64 on every platform
+#[allow(clippy::unnecessary_cast)]
 fn stderr_is_journal() -> bool {
     std::env::var("JOURNAL_STREAM")
         .ok()

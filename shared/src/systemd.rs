@@ -57,7 +57,9 @@ impl Notifier {
     /// How often the event loop must at least wake up: a quarter of the watchdog timeout, so one
     /// late wake-up never costs the service its life; one second without a watchdog.
     pub fn tick(&self) -> Duration {
-        self.watchdog.map_or(IDLE_TICK, |w| (w / 4).clamp(Duration::from_millis(10), IDLE_TICK))
+        self.watchdog.map_or(IDLE_TICK, |w| {
+            (w / 4).clamp(Duration::from_millis(10), IDLE_TICK)
+        })
     }
 
     /// `READY=1` with a first status: call once every publisher and subscriber is open.

@@ -17,8 +17,8 @@ use mimnav_foliage::{Classifier, FoliageParams};
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
-use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::topics::{FoliageHeader, FoliageReturn, MAX_FOLIAGE_SECTORS};
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
 

@@ -201,7 +201,9 @@ fn run(config: &Config) -> Result<()> {
                 odom_state = status;
                 sd.status(match status {
                     map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
-                    map_status::ODOM_STALE => "mapping; stale odometry (the glass memory stays put)",
+                    map_status::ODOM_STALE => {
+                        "mapping; stale odometry (the glass memory stays put)"
+                    }
                     _ => "mapping",
                 });
             }

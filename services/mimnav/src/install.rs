@@ -61,7 +61,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 7] = [
 
 const CONFIG: &str = include_str!("../../../config/mimnav.toml");
 const ROBOTS: [(&str, &str); 2] = [
-    ("spot.toml", include_str!("../../../config/robots/spot.toml")),
+    (
+        "spot.toml",
+        include_str!("../../../config/robots/spot.toml"),
+    ),
     (
         "turtlebot2.toml",
         include_str!("../../../config/robots/turtlebot2.toml"),
@@ -82,7 +85,10 @@ pub struct InstallArgs {
 /// The shipped config, deployed: iceoryx2's root path under `/run` (`/tmp` is read-only to the
 /// services, and a private `/tmp` would split the stack).
 pub fn deployed_config() -> Result<String> {
-    let from = format!("root-path = \"{}\"", mimnav_shared::config::DEFAULT_IOX2_ROOT);
+    let from = format!(
+        "root-path = \"{}\"",
+        mimnav_shared::config::DEFAULT_IOX2_ROOT
+    );
     if !CONFIG.contains(&from) {
         bail!("the shipped config has no `{from}` line to point at {DEPLOYED_IOX2_ROOT}");
     }

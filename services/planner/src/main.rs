@@ -20,8 +20,8 @@ use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, Listening, Svc};
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::topics::{
     FoliageHeader, Goal, Odometry, VelocityCommand, command_flags, command_status, foliage_class,
 };
@@ -135,7 +135,10 @@ fn run(config: &Config) -> Result<()> {
     let sd = Notifier::from_env();
     // a missed deadline on the map is stale input at once, not at the next tick
     let plan_guard = waitset
-        .attach_deadline(plan_sub.listener(), Duration::from_secs_f64(p.map_max_age_s))
+        .attach_deadline(
+            plan_sub.listener(),
+            Duration::from_secs_f64(p.map_max_age_s),
+        )
         .map_err(|e| anyhow::anyhow!("cannot wait on map/plan: {e:?}"))?;
     let _tick = waitset
         .attach_interval(Duration::from_millis(100).min(sd.tick()))

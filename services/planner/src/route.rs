@@ -425,7 +425,12 @@ mod tests {
                 }
             }
             // and it did stop early: some cells far away keep provisional lengths
-            let unsettled = full.dist.iter().zip(&part.dist).filter(|(a, b)| a != b).count();
+            let unsettled = full
+                .dist
+                .iter()
+                .zip(&part.dist)
+                .filter(|(a, b)| a != b)
+                .count();
             assert!(unsettled > 0, "goal {goal:?}");
         }
     }

@@ -340,7 +340,7 @@ fn wait_for_answer(
         if now >= until {
             return Answer::TimedOut;
         }
-        if !ipc::sleep(&node, Duration::ZERO) {
+        if !ipc::sleep(node, Duration::ZERO) {
             return Answer::Stop;
         }
         cmd.heard_within((until - now).min(Duration::from_millis(50)));

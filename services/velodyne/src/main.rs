@@ -14,8 +14,8 @@ use iceoryx2::prelude::*;
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::{Config, VelodyneInput, toml_quote};
 use mimnav_shared::faults::Faults;
-use mimnav_shared::systemd::Notifier;
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, Svc, ValuePublisher};
+use mimnav_shared::systemd::Notifier;
 use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
 use mimnav_velodyne::capture::CaptureReader;
 use mimnav_velodyne::packet::{POSITION_PACKET_LEN, PositionPacket, PpsStatus};
@@ -387,7 +387,10 @@ fn run_udp(config: &Config, _node: &Node<Svc>, driver: &mut Driver) -> Result<()
     let mut io_error_logged = false;
     let listening = format!(
         "listening on {}",
-        source.data_addr().map(|a| a.to_string()).unwrap_or_default()
+        source
+            .data_addr()
+            .map(|a| a.to_string())
+            .unwrap_or_default()
     );
     driver.sd.ready(&listening);
     driver.last_datagram = Some(Instant::now());
@@ -505,7 +508,11 @@ fn run_replay(config: &Config, node: &Node<Svc>, driver: &mut Driver) -> Result<
         }
     }
     driver.finish(Instant::now());
-    driver.sd.stopping(if stopped { "stopping" } else { "replay finished" });
+    driver.sd.stopping(if stopped {
+        "stopping"
+    } else {
+        "replay finished"
+    });
     driver.log_summary(if stopped {
         "replay stopped by signal"
     } else {
