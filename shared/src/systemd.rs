@@ -97,9 +97,13 @@ impl Notifier {
         self.send(&[sd_notify::NotifyState::Status(status)]);
     }
 
-    /// The status last set.
-    pub fn current_status(&self) -> &str {
-        &self.status
+    /// A status naming a silent input: `stale input: {what} for N s` once `last` (the latest
+    /// input) is `after` or more before `now`; nothing before that.
+    pub fn silent(&mut self, now: Instant, last: Instant, after: Duration, what: &str) {
+        let quiet = now.saturating_duration_since(last);
+        if quiet >= after {
+            self.status(&format!("stale input: {what} for {} s", quiet.as_secs()));
+        }
     }
 
     /// `STOPPING=1` with a last status.
@@ -166,6 +170,25 @@ mod tests {
         n.alive(t0 + Duration::from_millis(800)); // too soon after the last ping
         n.status("topics open"); // unchanged: nothing
         n.status("stale input: no map for 0.2 s");
+        let t1 = t0 + Duration::from_secs(5);
+        n.silent(
+            t1,
+            t1 - Duration::from_millis(900),
+            Duration::from_secs(1),
+            "no scan",
+        ); // not yet
+        n.silent(
+            t1,
+            t1 - Duration::from_millis(2500),
+            Duration::from_secs(1),
+            "no scan",
+        );
+        n.silent(
+            t1,
+            t1 - Duration::from_millis(2600),
+            Duration::from_secs(1),
+            "no scan",
+        ); // same
         n.stopping("stopping");
 
         // SAFETY: as above (sd_notify reads NOTIFY_SOCKET on every call, so it stayed set)
@@ -186,6 +209,7 @@ mod tests {
                 "READY=1\nSTATUS=topics open\n",
                 "WATCHDOG=1\n",
                 "STATUS=stale input: no map for 0.2 s\n",
+                "STATUS=stale input: no scan for 2 s\n",
                 "STOPPING=1\nSTATUS=stopping\n",
             ]
         );

@@ -152,13 +152,12 @@ fn run(config: &Config) -> Result<()> {
                 "classifying; no alarm"
             });
         }
-        let quiet = now.saturating_duration_since(last_scan);
-        if quiet >= Duration::from_secs(1) {
-            sd.status(&format!(
-                "stale input: no scan on lidar/scan2d for {} s",
-                quiet.as_secs()
-            ));
-        }
+        sd.silent(
+            now,
+            last_scan,
+            Duration::from_secs(1),
+            "no scan on lidar/scan2d",
+        );
         if since_report > 0 && seq % 100 < since_report {
             tracing::debug!(
                 scans = seq,

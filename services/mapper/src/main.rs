@@ -80,8 +80,6 @@ fn run(config: &Config) -> Result<()> {
     let mut spent_us = 0u64;
     let mut since_report = 0u64;
     let mut last_report = Instant::now();
-    // the odometry state the status line names
-    let mut odom_state = u8::MAX;
     sd.ready("waiting for lidar/points");
     let result = ipc::run_waitset(&waitset, |id| {
         sd.alive(Instant::now());
@@ -197,16 +195,12 @@ fn run(config: &Config) -> Result<()> {
             seq += 1;
             spent_us += u64::from(processing_us);
             since_report += 1;
-            if status != odom_state || sd.current_status().starts_with("stale input: no rev") {
-                odom_state = status;
-                sd.status(match status {
-                    map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
-                    map_status::ODOM_STALE => {
-                        "mapping; stale odometry (the glass memory stays put)"
-                    }
-                    _ => "mapping",
-                });
-            }
+            // sent only when it changes (after a stale-input line, too)
+            sd.status(match status {
+                map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
+                map_status::ODOM_STALE => "mapping; stale odometry (the glass memory stays put)",
+                _ => "mapping",
+            });
         }
         if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
             tracing::info!(

@@ -13,8 +13,6 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, Result};
 use mimnav_foliage::{Classifier, FoliageParams};
@@ -444,59 +442,25 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
             }
         }
     }
-    let workers = args
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, 64);
-    let bar = if args.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        let b = indicatif::ProgressBar::new(jobs.len() as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} episodes, {eta} left {msg}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    };
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Result<Episode>>> = Mutex::new(Vec::new());
+    let workers = crate::pool::workers(args.jobs);
     let started = std::time::Instant::now();
-    std::thread::scope(|s| {
-        for _ in 0..workers.min(jobs.len()) {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(w, m, seed)) = jobs.get(k) else {
-                        break;
-                    };
-                    let e = run_episode(config, &scenes[w], m, seed)
-                        .with_context(|| format!("{}, {}, seed {seed}", scenes[w].name, m.label()));
-                    if let Ok(ep) = &e
-                        && ep.ending != Ending::Success
-                    {
-                        bar.set_message(format!(
-                            "(last failure: {}, {}, seed {}: {})",
-                            ep.world,
-                            m.label(),
-                            seed,
-                            ep.ending.name()
-                        ));
-                    }
-                    if let Ok(mut r) = results.lock() {
-                        r.push(e);
-                    }
-                    bar.inc(1);
-                }
-            });
+    let results = crate::pool::run_all(&jobs, workers, args.quiet, |&(w, m, seed), bar| {
+        let e = run_episode(config, &scenes[w], m, seed)
+            .with_context(|| format!("{}, {}, seed {seed}", scenes[w].name, m.label()));
+        if let Ok(ep) = &e
+            && ep.ending != Ending::Success
+        {
+            bar.set_message(format!(
+                "(last failure: {}, {}, seed {}: {})",
+                ep.world,
+                m.label(),
+                seed,
+                ep.ending.name()
+            ));
         }
+        e
     });
-    bar.finish_and_clear();
-    let mut episodes = Vec::new();
-    for e in results.into_inner().unwrap_or_default() {
-        episodes.push(e?);
-    }
+    let mut episodes = results.into_iter().collect::<Result<Vec<_>>>()?;
     episodes.sort_by_key(|e| (e.world.clone(), e.method as u8, e.seed));
     let wall = started.elapsed().as_secs_f64();
     println!(

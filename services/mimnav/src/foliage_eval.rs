@@ -32,8 +32,6 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Context, Result};
 use mimnav_foliage::{Classifier, FoliageParams, class};
@@ -580,64 +578,29 @@ pub fn run(
             }
         }
     }
-    let workers = args
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, 64);
-    let bar = if args.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        let b = indicatif::ProgressBar::new(jobs.len() as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} episodes, {eta} left",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    };
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Result<Episode>>> = Mutex::new(Vec::new());
+    let workers = crate::pool::workers(args.jobs);
     let started = std::time::Instant::now();
-    std::thread::scope(|s| {
-        for _ in 0..workers.min(jobs.len()) {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(w, r, m, seed)) = jobs.get(k) else {
-                        break;
-                    };
-                    let e = run_episode(
-                        &configs[r],
-                        &scenes[w],
-                        w,
-                        m,
-                        speeds[r],
-                        seed,
-                        args.scans,
-                        args.min_returns,
-                    )
-                    .with_context(|| {
-                        format!(
-                            "{}, {}, {}, seed {seed}",
-                            scenes[w].name,
-                            configs[r].robot.name,
-                            m.name()
-                        )
-                    });
-                    if let Ok(mut v) = results.lock() {
-                        v.push(e);
-                    }
-                    bar.inc(1);
-                }
-            });
-        }
+    let results = crate::pool::run_all(&jobs, workers, args.quiet, |&(w, r, m, seed), _| {
+        run_episode(
+            &configs[r],
+            &scenes[w],
+            w,
+            m,
+            speeds[r],
+            seed,
+            args.scans,
+            args.min_returns,
+        )
+        .with_context(|| {
+            format!(
+                "{}, {}, {}, seed {seed}",
+                scenes[w].name,
+                configs[r].robot.name,
+                m.name()
+            )
+        })
     });
-    bar.finish_and_clear();
-    let mut episodes = Vec::new();
-    for e in results.into_inner().unwrap_or_default() {
-        episodes.push(e?);
-    }
+    let mut episodes = results.into_iter().collect::<Result<Vec<_>>>()?;
     episodes.sort_by(|a, b| {
         (a.world, &a.robot, a.motion, a.seed).cmp(&(b.world, &b.robot, b.motion, b.seed))
     });

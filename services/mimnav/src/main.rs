@@ -6,6 +6,7 @@ mod eval;
 mod foliage_eval;
 mod goal;
 mod install;
+mod pool;
 mod procs;
 mod replay;
 mod score_map;

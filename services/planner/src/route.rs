@@ -236,7 +236,7 @@ impl Route {
         });
         // the cells the rollouts can reach: once they are all settled, the rest is not needed
         self.wanted.clear();
-        self.wanted.resize(m, p.settle_within_m <= 0.0);
+        self.wanted.resize(m, false);
         let mut wanted = 0usize;
         if p.settle_within_m > 0.0 {
             let reach = p.settle_within_m + 2.0 * cs.cell_m;
@@ -254,7 +254,7 @@ impl Route {
             if d > self.dist[k] {
                 continue;
             }
-            if p.settle_within_m > 0.0 && self.wanted[k] {
+            if self.wanted[k] {
                 self.wanted[k] = false;
                 wanted -= 1;
                 if wanted == 0 {

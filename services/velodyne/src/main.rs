@@ -278,11 +278,7 @@ impl Driver {
     fn alive(&mut self, now: Instant, silent_after: Duration) {
         self.sd.alive(now);
         if let Some(t) = self.last_datagram {
-            let quiet = now.saturating_duration_since(t);
-            if quiet >= silent_after {
-                let status = format!("no VLP-16 datagram for {} s", quiet.as_secs());
-                self.sd.status(&status);
-            }
+            self.sd.silent(now, t, silent_after, "no VLP-16 datagram");
         }
     }
 }
