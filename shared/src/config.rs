@@ -363,6 +363,10 @@ pub struct MapperConfig {
     /// A cell with at least this many returns, none of which a beam passed through, is solid
     /// whatever its intensity (an opaque surface seen at a grazing angle).
     pub min_returns_solid: u32,
+    /// A cell with at least this many returns in one revolution, none of which a beam passed
+    /// through, is solid whatever its intensity and height: a surface that stops every beam
+    /// (a trunk seen through grass returns faintly, below Γ, but lets nothing past).
+    pub stop_min_returns: u32,
     /// Glass: a spike's returns reach at least this intensity (the top of the diffuse range).
     pub glass_intensity: f64,
     /// Glass: the spike rises and falls by at least this much.
@@ -397,6 +401,7 @@ impl Default for MapperConfig {
             solid_max: 0.35,
             opaque_min: 0.05,
             tall_m: 1.0,
+            stop_min_returns: 16,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -444,6 +449,12 @@ impl MapperConfig {
         r.check("mapper.solid_max", self.solid_max, 0.0, 2.55);
         r.check("mapper.opaque_min", self.opaque_min, 0.0, 2.55);
         r.check("mapper.tall_m", self.tall_m, 0.1, 10.0);
+        r.check(
+            "mapper.stop_min_returns",
+            f64::from(self.stop_min_returns),
+            1.0,
+            10000.0,
+        );
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,

@@ -20,7 +20,11 @@
 //! grass blades and curtain strands never return that much, while a solid object seen partly
 //! through grass still returns brightly where a beam reaches it whole. Likewise a weak
 //! echo less than 0.5 m behind a bright echo (above Γ) of the same firing comes from inside the
-//! same object, and its cell is solid. (Single-return sensors give none of these cues: then
+//! same object, and its cell is solid. And a cell that gathers many returns in one revolution
+//! (`stop_min_returns`) with not one beam passing through it is solid however faint they are: a
+//! trunk seen through a metre of grass returns no more light than the blades (the beam has lost
+//! most of its energy on the way), but grass lets some beam on from nearly every cell it returns
+//! from. (Single-return sensors give none of these cues: then
 //! equation 3 alone decides.)
 #![deny(missing_docs)]
 
@@ -58,6 +62,9 @@ pub struct MapperParams {
     /// A cell with a return higher than this above the ground that no beam passed through is
     /// solid, m.
     pub tall_m: f64,
+    /// Returns in one revolution, none passed through, that make a cell solid whatever their
+    /// intensity and height.
+    pub stop_min_returns: u16,
     /// Returns with none passed through that make a cell solid.
     pub min_returns_solid: u16,
     /// Glass spike detector.
@@ -88,6 +95,7 @@ impl MapperParams {
             solid_max: m.solid_max as f32,
             opaque_min: m.opaque_min as f32,
             tall_m: m.tall_m,
+            stop_min_returns: m.stop_min_returns.min(u32::from(u16::MAX)) as u16,
             min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
@@ -576,7 +584,10 @@ impl Mapper {
             let opaque = opaque || 2 * e.inside >= e.hits;
             // taller than grass grows and no beam passed through it: a trunk or a bush
             let tall = e.top_z > tall_z && e.passed == 0;
-            if mean <= gamma && !opaque && !tall && !bright {
+            // many returns and not one beam through: a surface that stops every beam, however
+            // faint (grass lets some beams on from nearly every cell it returns from)
+            let stops = e.passed == 0 && e.hits >= self.params.stop_min_returns;
+            if mean <= gamma && !opaque && !tall && !stops && !bright {
                 self.classes[i] = cell_class::PASSABLE;
                 self.cost[i] = self.params.passable_cost;
             } else {

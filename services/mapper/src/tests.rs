@@ -123,6 +123,53 @@ fn a_dim_cell_no_beam_passes_through_is_solid() {
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
 }
 
+/// A firing seen through grass: a faint blade echo (strongest) at `blade` m, then the last echo
+/// at (x, y, z), in the driver's order (last first), sharing the firing's azimuth.
+fn through_blade(x: f32, y: f32, z: f32, blade: f32, laser: u8) -> [Point; 2] {
+    let far = pt(x, y, z, 6, laser, return_type::LAST);
+    let s = blade / (x * x + y * y + z * z).sqrt();
+    let near = Point {
+        azimuth_cdeg: far.azimuth_cdeg,
+        ..pt(x * s, y * s, z * s, 4, laser, return_type::STRONGEST)
+    };
+    [far, near]
+}
+
+#[test]
+fn a_faint_surface_that_stops_every_beam_is_solid() {
+    // a trunk behind a metre of grass: every beam crosses blades first, so the trunk's echoes are
+    // last returns, as faint as the blades (below Γ), low (no "tall" cue) and never single
+    let trunk: Vec<Point> = (0..20)
+        .flat_map(|k| through_blade(2.0, 0.5, -0.3 + 0.02 * k as f32, 1.0, (k % 16) as u8))
+        .collect();
+    let mut m = mapper();
+    assert_eq!(m.params().stop_min_returns, 16, "the documented default");
+    m.update(&trunk, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 0.5), cell_class::SOLID, "20 returns, none through");
+    // the same cell with fewer returns than stop_min_returns stays passable (equation 3)
+    let mut m = mapper();
+    m.update(&trunk[..2 * 15], OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 0.5), cell_class::PASSABLE, "15 returns");
+    // grass: as many faint returns, but one beam went on through the cell
+    let mut grass = trunk.clone();
+    grass.extend(through_blade(4.0, 1.0, 0.0, 2.0f32.hypot(0.5), 5));
+    let blade_cell = (grass[41].x, grass[41].y);
+    assert_eq!(class_at(&m, 2.0, 0.5), cell_class::PASSABLE);
+    let mut m = mapper();
+    m.update(&grass, OdomInput::Missing, 0);
+    let g = m.params().grid;
+    assert_eq!(
+        g.cell_of(blade_cell.0, blade_cell.1),
+        g.cell_of(2.0, 0.5),
+        "the blade lies in the trunk's cell"
+    );
+    assert_eq!(
+        class_at(&m, 2.0, 0.5),
+        cell_class::PASSABLE,
+        "a beam passed through"
+    );
+}
+
 #[test]
 fn a_weak_echo_just_behind_a_bright_one_is_inside_the_same_object() {
     let mut m = mapper();
