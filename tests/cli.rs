@@ -126,10 +126,11 @@ fn score_map_meets_the_targets_where_the_readme_says_it_does() {
         f(&s3, 0) >= 0.95 && f(&s3, 1) >= 0.95,
         "scenario 3: {stdout}"
     );
-    // solid below the 0.95 target (see the README): a regression floor
+    // solid below the 0.95 target (see the README): a regression floor above the 0.805 the map
+    // had before mapper.stop_min_returns
     let s4 = score_row(&stdout, "scenario 4");
     assert!(
-        f(&s4, 1) >= 0.95 && f(&s4, 0) >= 0.78,
+        f(&s4, 1) >= 0.95 && f(&s4, 0) >= 0.815,
         "scenario 4: {stdout}"
     );
     let wall = score_row(&stdout, "one wall");
@@ -232,4 +233,9 @@ fn eval_reaches_the_goal_of_scenario_2_and_the_laser_scan_baseline_does_not() {
         "{stdout}"
     );
     assert!(stdout.contains("| scenario 2"), "the table: {stdout}");
+    // the summary line counts the paper's method, by name
+    assert!(
+        stdout.contains("intensity map, adaptive inflation: 100.0 % success over 1 episodes"),
+        "the summary: {stdout}"
+    );
 }
