@@ -742,7 +742,8 @@ pub struct VelodyneConfig {
     pub accept_product_0x21: bool,
     /// Laser id (0–15, firing order) published as the planar scan; 14 is the −1° laser.
     pub scan_laser: u8,
-    /// Return of a dual pair the planar scan takes: `strongest` or `last`.
+    /// Return of a dual pair the planar scan takes: `last` (default: the foliage classifier sees
+    /// an obstacle behind grass through the beams that reach it) or `strongest`.
     pub scan_return: ScanReturnConfig,
     /// Publish every raw datagram on `lidar/packets`.
     pub publish_packets: bool,
@@ -771,7 +772,7 @@ impl Default for VelodyneConfig {
             max_range_m: 200.0,
             accept_product_0x21: false,
             scan_laser: 14,
-            scan_return: ScanReturnConfig::Strongest,
+            scan_return: ScanReturnConfig::Last,
             publish_packets: false,
             stats_interval_s: 10.0,
         }

@@ -41,7 +41,8 @@ pub enum Method {
     Foliage,
     /// The intensity map with uniform inflation (the paper's ablation).
     Uniform,
-    /// Baseline: DWA on the planar scan of one laser, every return an obstacle.
+    /// Baseline: DWA on the planar scan of one laser (its strongest returns, whatever
+    /// `velodyne.scan_return` says), every return an obstacle.
     LaserScan,
     /// Baseline: DWA on an occupancy map of every return in the robot's height band.
     Occupancy,
@@ -192,7 +193,13 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         seed,
         DEFAULT_EPOCH_NS,
     );
-    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
+    let mut asm_config = AssemblerConfig::from_config(config);
+    if method == Method::LaserScan {
+        // the paper's baseline is a single-return planar scanner: the strongest echo, which in
+        // grass is a blade (the last return would see through the grass)
+        asm_config.decoder.scan_return = mimnav_velodyne::decode::ScanReturnSelect::Strongest;
+    }
+    let mut asm = Assembler::new(asm_config);
     let mut mapper = Mapper::new(MapperParams::from_config(config));
     let mut params = PlannerParams::from_config(config);
     params.inflation = match method {
