@@ -145,7 +145,11 @@ fn a_faint_surface_that_stops_every_beam_is_solid() {
     let mut m = mapper();
     assert_eq!(m.params().stop_min_returns, 16, "the documented default");
     m.update(&trunk, OdomInput::Missing, 0);
-    assert_eq!(class_at(&m, 2.0, 0.5), cell_class::SOLID, "20 returns, none through");
+    assert_eq!(
+        class_at(&m, 2.0, 0.5),
+        cell_class::SOLID,
+        "20 returns, none through"
+    );
     // the same cell with fewer returns than stop_min_returns stays passable (equation 3)
     let mut m = mapper();
     m.update(&trunk[..2 * 15], OdomInput::Missing, 0);
