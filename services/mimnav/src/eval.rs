@@ -494,12 +494,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 .filter(|e| e.world == scene.name && e.method == m)
             {
                 s.add(e);
-            }
-            if m == headline {
-                for e in episodes
-                    .iter()
-                    .filter(|e| e.world == scene.name && e.method == m)
-                {
+                if m == headline {
                     all.add(e);
                 }
             }
@@ -568,7 +563,6 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
             );
         }
     }
-    let headline_n = episodes.iter().filter(|e| e.method == headline).count();
     println!(
         "\n{} episodes in {:.0} s on {} threads; {}: {:.1} % success over {} episodes, normalised length {}",
         episodes.len(),
@@ -576,7 +570,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
         workers,
         headline.label(),
         100.0 * all.success_rate(),
-        headline_n,
+        all.runs,
         all.mean_length()
             .map_or_else(|| "–".to_string(), |l| format!("{l:.3}"))
     );
