@@ -247,10 +247,39 @@ where
     /// Copies `items` into a loaned shared-memory sample with `header`, sends it and wakes the
     /// listeners. Returns how many subscribers received it.
     pub fn publish(&self, header: H, items: &[T]) -> Result<usize, IpcError> {
-        if items.len() > self.capacity {
+        self.send_loaned(header, items.len(), |sample| sample.write_from_slice(items))
+    }
+
+    /// Like [`publish`](Self::publish), but the `len` elements come from `items`, written
+    /// straight into the shared-memory sample: no buffer in between, no copy. Should `items` end
+    /// early, the rest is `T::default()`.
+    pub fn publish_from_iter(
+        &self,
+        header: H,
+        len: usize,
+        mut items: impl Iterator<Item = T>,
+    ) -> Result<usize, IpcError>
+    where
+        T: Default,
+    {
+        // write_from_fn fills the slice front to back, one call per element
+        self.send_loaned(header, len, |sample| {
+            sample.write_from_fn(|_| items.next().unwrap_or_default())
+        })
+    }
+
+    fn send_loaned(
+        &self,
+        header: H,
+        len: usize,
+        write: impl FnOnce(
+            iceoryx2::sample_mut_uninit::SampleMutUninit<Svc, [core::mem::MaybeUninit<T>], H>,
+        ) -> iceoryx2::sample_mut::SampleMut<Svc, [T], H>,
+    ) -> Result<usize, IpcError> {
+        if len > self.capacity {
             return Err(IpcError::Capacity {
                 topic: self.topic,
-                len: items.len(),
+                len,
                 capacity: self.capacity,
             });
         }
@@ -260,11 +289,10 @@ where
         };
         let mut sample = self
             .publisher
-            .loan_slice_uninit(items.len())
+            .loan_slice_uninit(len)
             .map_err(|e| publish_err(&e))?;
         *sample.user_header_mut() = header;
-        let sample = sample.write_from_slice(items);
-        let delivered = sample.send().map_err(|e| publish_err(&e))?;
+        let delivered = write(sample).send().map_err(|e| publish_err(&e))?;
         self.notifier.notify().map_err(|e| publish_err(&e))?;
         Ok(delivered)
     }

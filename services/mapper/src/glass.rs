@@ -161,7 +161,7 @@ impl GlassMemory {
         marked: &mut [bool],
     ) {
         let first = cells.len();
-        let mut push = |i: usize, cells: &mut Vec<usize>| {
+        let push = |i: usize, cells: &mut Vec<usize>, marked: &mut [bool]| {
             if !marked[i] {
                 marked[i] = true;
                 cells.push(i);
@@ -171,7 +171,7 @@ impl GlassMemory {
         for (x, y, _) in self.entries.values() {
             let (rx, ry) = pose.to_robot(*x, *y);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
-                push(grid.index(r, c), cells);
+                push(grid.index(r, c), cells, marked);
                 pts.push((rx, ry));
             }
         }
@@ -188,13 +188,23 @@ impl GlassMemory {
                 if d > gap_fill_m || d < 2.0 * step {
                     continue;
                 }
+                // a drawn midpoint means no gap between the two (the entries run on between
+                // them, or an earlier line already crossed it): nothing to fill, and skipping
+                // keeps a long pane from drawing every pair of its entries
+                let (mx, my) = (0.5 * (pts[i].0 + pts[j].0), 0.5 * (pts[i].1 + pts[j].1));
+                if grid
+                    .cell_of(mx as f32, my as f32)
+                    .is_some_and(|(r, c)| marked[grid.index(r, c)])
+                {
+                    continue;
+                }
                 let n = (d / step).ceil() as usize;
                 for k in 1..n {
                     let t = k as f64 / n as f64;
                     let x = pts[i].0 + t * (pts[j].0 - pts[i].0);
                     let y = pts[i].1 + t * (pts[j].1 - pts[i].1);
                     if let Some((r, c)) = grid.cell_of(x as f32, y as f32) {
-                        push(grid.index(r, c), cells);
+                        push(grid.index(r, c), cells, marked);
                     }
                 }
             }

@@ -169,6 +169,8 @@ struct LayerBounds {
 pub struct Mapper {
     params: MapperParams,
     bounds: Vec<LayerBounds>,
+    /// 1 / (R g²): turns a layer's intensity sum into eq. 1's I_j.
+    layer_scale: f32,
     roles: [usize; 4],
     /// Per cell and layer (cell-major: `i * m + j`): eq. 1's sum, the count and the maximum.
     layer: Vec<LayerCell>,
@@ -240,8 +242,10 @@ impl Mapper {
                 cell_bin.push(((az * 2.0) as usize % REACH_BINS) as u16);
             }
         }
+        let g = params.grid.cell_m;
         Mapper {
             bounds,
+            layer_scale: 1.0 / (params.full_scale * g * g),
             roles,
             layer: vec![LayerCell::default(); m * n2],
             evidence: vec![Evidence::default(); n2],
@@ -284,12 +288,14 @@ impl Mapper {
 
     /// Layer j as the paper's I_j (eq. 1): Σ (intensity / R) / g² per cell.
     pub fn layer_values(&self, j: usize, out: &mut Vec<f32>) {
-        let n2 = self.params.grid.len();
-        let g2 = self.params.grid.cell_m * self.params.grid.cell_m;
-        let scale = 1.0 / (self.params.full_scale * g2);
-        let m = self.bounds.len();
         out.clear();
-        out.extend((0..n2).map(|i| self.layer[i * m + j].sum * scale));
+        out.extend((0..self.params.grid.len()).map(|i| self.layer_value(j, i)));
+    }
+
+    /// Layer j of cell i as the paper's I_j (eq. 1): Σ (intensity / R) / g².
+    #[inline]
+    pub fn layer_value(&self, j: usize, i: usize) -> f32 {
+        self.layer[i * self.bounds.len() + j].sum * self.layer_scale
     }
 
     /// Mean normalised intensity of layer j in cell i (0 without points).

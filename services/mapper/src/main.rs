@@ -74,9 +74,6 @@ fn run(config: &Config) -> Result<()> {
     let mut latest_odom: Option<Odometry> = None;
     let odom_max_age_ns = (config.mapper.odom_max_age_s * 1e9) as u64;
     let mut seq = 0u64;
-    let mut layer_buf: Vec<f32> = Vec::with_capacity(n_layers * grid.len());
-    let mut one_layer: Vec<f32> = Vec::with_capacity(grid.len());
-    let mut plan_buf: Vec<PlanCell> = Vec::with_capacity(grid.len());
     let mut spent_us = 0u64;
     let mut since_report = 0u64;
     let mut last_report = Instant::now();
@@ -145,19 +142,6 @@ fn run(config: &Config) -> Result<()> {
             }
             let stats = mapper.update(sample.payload(), odom, h.stamp_ns);
             drop(sample);
-            plan_buf.clear();
-            plan_buf.extend(
-                mapper
-                    .classes()
-                    .iter()
-                    .zip(mapper.cost())
-                    .map(|(&class, &cost)| PlanCell { class, cost }),
-            );
-            layer_buf.clear();
-            for j in 0..n_layers {
-                mapper.layer_values(j, &mut one_layer);
-                layer_buf.extend_from_slice(&one_layer);
-            }
             let o = latest_odom.unwrap_or_default();
             let processing_us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
             let header = MapHeader {
@@ -177,10 +161,20 @@ fn run(config: &Config) -> Result<()> {
                 status,
                 reserved: [0; 7],
             };
-            if let Err(e) = plan_pub.publish(header, &plan_buf) {
+            // the plan first, written straight into shared memory: the planner waits for it;
+            // the layers (for pictures and diagnostics) after
+            let (classes, cost) = (mapper.classes(), mapper.cost());
+            let plan = classes
+                .iter()
+                .zip(cost)
+                .map(|(&class, &cost)| PlanCell { class, cost });
+            if let Err(e) = plan_pub.publish_from_iter(header, classes.len(), plan) {
                 faults.record("publish_failed", Instant::now(), e);
             }
-            if let Err(e) = layers_pub.publish(header, &layer_buf) {
+            let n2 = grid.len();
+            let layers = (0..n_layers).flat_map(|j| (0..n2).map(move |i| (j, i)));
+            let layers = layers.map(|(j, i)| mapper.layer_value(j, i));
+            if let Err(e) = layers_pub.publish_from_iter(header, n_layers * n2, layers) {
                 faults.record("publish_failed", Instant::now(), e);
             }
             tracing::debug!(

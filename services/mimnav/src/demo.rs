@@ -170,6 +170,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     // revolution sequence → its last packet's receive time (from the map header)
     let mut received: VecDeque<(u64, u64)> = VecDeque::new();
     let mut latencies_ms = Vec::new();
+    let mut mapper_ms = Vec::new();
     let (mut maps, mut cmds, mut blocked, mut stale) = (0u64, 0u64, 0u64, 0u64);
     let mut alarmed = 0u64;
     let mut last_map: Option<(MapHeader, Vec<u8>)> = None;
@@ -188,6 +189,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         while let Some(sample) = plans.receive()? {
             let h = *sample.user_header();
             received.push_back((h.source_seq, h.rx_mono_ns));
+            mapper_ms.push(f64::from(h.processing_us) / 1e3);
             if received.len() > 64 {
                 received.pop_front();
             }
@@ -294,6 +296,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         crate::snapshot::write_png(&args.out, &img)?;
     }
     latencies_ms.sort_by(f64::total_cmp);
+    mapper_ms.sort_by(f64::total_cmp);
     println!(
         "{}: {outcome} after {:.1} s simulated ({wall_s:.1} s wall); driven {:.2} m, straight line {:.2} m (ratio {:.2})",
         world.name,
@@ -308,6 +311,12 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         percentile(&latencies_ms, 0.5),
         percentile(&latencies_ms, 0.99),
         latencies_ms.last().copied().unwrap_or(f64::NAN)
+    );
+    println!(
+        "of which the mapper's own processing per revolution: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+        percentile(&mapper_ms, 0.5),
+        percentile(&mapper_ms, 0.99),
+        mapper_ms.last().copied().unwrap_or(f64::NAN)
     );
     if last_map.is_some() {
         println!(
