@@ -751,7 +751,7 @@ impl Drop for PrivateDomain {
 mod tests {
     use super::*;
 
-    use crate::topics::{Point, PointsHeader};
+    use crate::topics::{MapHeader, Point, PointsHeader};
 
     #[test]
     fn points_round_trip_with_end_of_stream() {
@@ -795,6 +795,34 @@ mod tests {
         assert_eq!(sample.payload()[9].x, 9.0);
         drop(sample);
         assert!(sub.receive().expect("receive").is_none());
+    }
+
+    #[test]
+    fn a_sample_written_in_place_arrives_in_order_and_padded() {
+        let loc = PrivateDomain::new("ipcfn");
+        let node = node(&loc.config(), "ipc-fn").expect("node");
+        let sub = layers_subscriber(&node).expect("subscriber");
+        let publ = layers_publisher(&node, 8).expect("publisher");
+        let header = MapHeader {
+            seq: 3,
+            ..MapHeader::default()
+        };
+        // an iterator that ends early: the rest is the default
+        let n = publ
+            .publish_from_iter(header, 6, (0..4).map(|i| i as f32 * 1.5))
+            .expect("publish");
+        assert_eq!(n, 1);
+        assert!(matches!(
+            publ.publish_from_iter(header, 9, std::iter::repeat(1.0)),
+            Err(IpcError::Capacity {
+                len: 9,
+                capacity: 8,
+                ..
+            })
+        ));
+        let sample = sub.receive().expect("receive").expect("a sample");
+        assert_eq!(sample.user_header().seq, 3);
+        assert_eq!(sample.payload(), &[0.0, 1.5, 3.0, 4.5, 0.0, 0.0]);
     }
 
     #[test]

@@ -490,4 +490,35 @@ mod tests {
         let (r, c) = grid.cell_of(3.0, 1.2).expect("inside");
         assert!(!cells.contains(&grid.index(r, c)), "the 1.7 m gap is not");
     }
+
+    #[test]
+    fn a_long_pane_with_a_gap_draws_exactly_its_line() {
+        // a pane across the heading (every entry at the same x: the order the fill sorts by
+        // does not separate them), detected in two pieces with a 0.35 m gap
+        let grid = GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        };
+        let mut m = GlassMemory::new(0.05);
+        let p = Pose2::default();
+        let ys: Vec<f64> = (0..=40)
+            .map(|k| -1.0 + 0.05 * f64::from(k) + 0.025)
+            .filter(|y| y.abs() > 0.2)
+            .collect();
+        for &y in &ys {
+            m.add(&p, 3.025, y, 0);
+        }
+        let mut cells = Vec::new();
+        m.draw(&p, grid, 0.8, &mut cells, &mut vec![false; grid.len()]);
+        let line: Vec<usize> = (0..=40)
+            .map(|k| {
+                let (r, c) = grid.cell_of(3.025, -1.0 + 0.05 * k as f32 + 0.025).expect("in");
+                grid.index(r, c)
+            })
+            .collect();
+        for i in &line {
+            assert!(cells.contains(i), "cell {i} of the pane or its gap is drawn");
+        }
+        assert_eq!(cells.len(), line.len(), "nothing off the pane: {cells:?}");
+    }
 }
