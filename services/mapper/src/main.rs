@@ -115,6 +115,8 @@ fn run(config: &Config) -> Result<()> {
             let started = Instant::now();
             let h = *sample.user_header();
             let now_mono = ipc::monotonic_ns();
+            // from the revolution's last packet to here: the driver's publish and this wake-up
+            let waited_us = now_mono.saturating_sub(h.rx_mono_ns) / 1000;
             let (odom, status) = match latest_odom {
                 None => (OdomInput::Missing, map_status::ODOM_MISSING),
                 Some(o) if now_mono.saturating_sub(o.rx_mono_ns) > odom_max_age_ns => {
@@ -180,6 +182,7 @@ fn run(config: &Config) -> Result<()> {
             tracing::debug!(
                 seq,
                 source_seq = h.seq,
+                waited_us,
                 processing_us,
                 glass_detected = stats.glass_detected,
                 glass_memory = stats.glass_memory,
