@@ -99,6 +99,11 @@ pub struct FoliageEvalArgs {
     /// A scan sees an obstacle when at least this many of its returns are on it.
     #[arg(long, default_value_t = 3)]
     min_returns: usize,
+    /// A visible scan shows the obstacle as a run when at least this many of its returns on it
+    /// are consecutive (neighbouring firings, nothing between them): what the classifier's
+    /// windows can see. Reported beside the detection over all visible scans.
+    #[arg(long, default_value_t = 3)]
+    min_run: usize,
     /// Parallel episodes (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
@@ -129,6 +134,10 @@ pub struct ObstacleRecord {
     pub visible: u64,
     /// Visible scans in which it raised the alarm.
     pub alarmed: u64,
+    /// Visible scans with at least `min_run` consecutive returns on it.
+    pub visible_run: u64,
+    /// Of those, the scans in which it raised the alarm.
+    pub alarmed_run: u64,
     /// Scans in which it raised the alarm while not visible (from a glimpse).
     pub alarmed_not_visible: u64,
     /// First visible scan.
@@ -241,6 +250,7 @@ pub fn run_episode(
     seed: u64,
     scans: u64,
     min_returns: usize,
+    min_run: usize,
 ) -> Result<Episode> {
     let params = FoliageParams::from_config(&config.foliage);
     let mut classifier = Classifier::new(params).map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
@@ -296,6 +306,8 @@ pub fn run_episode(
     let (mut angles, mut ranges) = (Vec::new(), Vec::new());
     let n = obstacles.len();
     let (mut los, mut on, mut hits) = (vec![0usize; n], vec![0usize; n], vec![0usize; n]);
+    // per obstacle: the current and the longest run of consecutive returns on it
+    let (mut run, mut longest) = (vec![0usize; n], vec![0usize; n]);
     let mut on_return: Vec<Option<usize>> = Vec::new();
     while episode.scans < scans {
         if sim.outcome() != Outcome::Running {
@@ -323,6 +335,8 @@ pub fn run_episode(
         los.fill(0);
         on.fill(0);
         hits.fill(0);
+        run.fill(0);
+        longest.fill(0);
         angles.clear();
         ranges.clear();
         for (r, t) in scan.iter().zip(&truth) {
@@ -342,10 +356,13 @@ pub fn run_episode(
             }
             let is_on =
                 k.filter(|_| r.range_m > 0.0 && (r.range_m - t.range_m).abs() <= ON_OBSTACLE_TOL_M);
-            if let Some(k) = is_on
-                && near(r.range_m)
-            {
+            let counted = is_on.filter(|_| near(r.range_m));
+            if let Some(k) = counted {
                 on[k] += 1;
+            }
+            for (j, len) in run.iter_mut().enumerate() {
+                *len = if counted == Some(j) { *len + 1 } else { 0 };
+                longest[j] = longest[j].max(*len);
             }
             on_return.push(is_on);
             angles.push(r.angle_rad);
@@ -384,6 +401,10 @@ pub fn run_episode(
             if visible {
                 rec.visible += 1;
                 rec.alarmed += u64::from(alarmed);
+                if longest[k] >= min_run {
+                    rec.visible_run += 1;
+                    rec.alarmed_run += u64::from(alarmed);
+                }
                 if rec.first_visible.is_none() {
                     rec.first_visible = Some(episode.scans);
                 }
@@ -418,6 +439,8 @@ struct Summary {
     glimpsed: u64,
     visible: u64,
     alarmed: u64,
+    visible_run: u64,
+    alarmed_run: u64,
     /// Obstacle-episodes that became visible, and of those never alarmed.
     onsets: u64,
     never: u64,
@@ -443,6 +466,8 @@ impl Summary {
             self.glimpsed += o.glimpsed;
             self.visible += o.visible;
             self.alarmed += o.alarmed;
+            self.visible_run += o.visible_run;
+            self.alarmed_run += o.alarmed_run;
             if o.first_visible.is_some() {
                 self.onsets += 1;
                 match o.delay_scans {
@@ -459,6 +484,18 @@ impl Summary {
 
     fn detection(&self) -> Option<f64> {
         (self.visible > 0).then(|| self.alarmed as f64 / self.visible as f64)
+    }
+
+    fn detection_run_text(&self) -> String {
+        if self.visible_run == 0 {
+            return "–".into();
+        }
+        format!(
+            "{} → {:.1} % ({})",
+            self.visible_run,
+            100.0 * self.alarmed_run as f64 / self.visible_run as f64,
+            self.alarmed_run
+        )
     }
 
     fn delay_text(&self) -> String {
@@ -518,6 +555,7 @@ pub fn run(
         args.scans
     );
     anyhow::ensure!(args.min_returns >= 1, "--min-returns must be at least 1");
+    anyhow::ensure!(args.min_run >= 1, "--min-run must be at least 1");
     if let Some(s) = args.speed {
         anyhow::ensure!(
             s.is_finite() && s > 0.0,
@@ -590,6 +628,7 @@ pub fn run(
             seed,
             args.scans,
             args.min_returns,
+            args.min_run,
         )
         .with_context(|| {
             format!(
@@ -672,13 +711,13 @@ pub fn run(
     let mut det = Summary::default();
     if !with_obstacles.is_empty() {
         println!(
-            "\nDetection (obstacle-scans: one obstacle in one scan; visible: ≥ {} returns on it within [d_min, d_max]; alarmed: an obstacle-class return on it):\n",
-            args.min_returns
+            "\nDetection (obstacle-scans: one obstacle in one scan; visible: ≥ {} returns on it within [d_min, d_max]; alarmed: an obstacle-class return on it; as a run: visible with ≥ {} of those returns consecutive):\n",
+            args.min_returns, args.min_run
         );
         println!(
-            "| world | robot | motion | in range | out of the beam | hidden by grass (glimpsed) | visible | alarmed | delay mean / max, scans (s) | visible, never alarmed | alarmed from a glimpse |"
+            "| world | robot | motion | in range | out of the beam | hidden by grass (glimpsed) | visible | alarmed | visible as a run → alarmed | delay mean / max, scans (s) | visible, never alarmed | alarmed from a glimpse |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
         for (scene, r, m, s) in with_obstacles {
             let glimpse_alarms: u64 = episodes
                 .iter()
@@ -689,7 +728,7 @@ pub fn run(
                 .map(|o| o.alarmed_not_visible)
                 .sum();
             println!(
-                "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} of {} | {} |",
+                "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} of {} | {} |",
                 scene.name,
                 robots[*r],
                 m.name(),
@@ -702,6 +741,7 @@ pub fn run(
                     || "–".to_string(),
                     |d| format!("{:.1} % ({})", 100.0 * d, s.alarmed)
                 ),
+                s.detection_run_text(),
                 s.delay_text(),
                 s.never,
                 s.onsets,
@@ -709,6 +749,8 @@ pub fn run(
             );
             det.visible += s.visible;
             det.alarmed += s.alarmed;
+            det.visible_run += s.visible_run;
+            det.alarmed_run += s.alarmed_run;
             det.delays.extend_from_slice(&s.delays);
             det.never += s.never;
             det.onsets += s.onsets;
@@ -727,7 +769,7 @@ pub fn run(
                 .iter()
                 .map(|o| {
                     format!(
-                        "{{\"object\":{},\"label\":{:?},\"in_range\":{},\"out_of_beam\":{},\"hidden\":{},\"glimpsed\":{},\"visible\":{},\"alarmed\":{},\"alarmed_not_visible\":{},\"first_visible\":{},\"delay_scans\":{}}}",
+                        "{{\"object\":{},\"label\":{:?},\"in_range\":{},\"out_of_beam\":{},\"hidden\":{},\"glimpsed\":{},\"visible\":{},\"alarmed\":{},\"visible_run\":{},\"alarmed_run\":{},\"alarmed_not_visible\":{},\"first_visible\":{},\"delay_scans\":{}}}",
                         o.object,
                         o.label,
                         o.in_range,
@@ -736,6 +778,8 @@ pub fn run(
                         o.glimpsed,
                         o.visible,
                         o.alarmed,
+                        o.visible_run,
+                        o.alarmed_run,
                         o.alarmed_not_visible,
                         o.first_visible.map_or_else(|| "null".into(), |v| v.to_string()),
                         o.delay_scans.map_or_else(|| "null".into(), |v| v.to_string()),
@@ -787,6 +831,11 @@ pub fn run(
             det.delay_text(),
             det.never,
             det.onsets
+        );
+        println!(
+            "  of those, visible as a run (≥ {} consecutive returns on it): {}",
+            args.min_run,
+            det.detection_run_text()
         );
     }
     Ok(ExitCode::SUCCESS)
