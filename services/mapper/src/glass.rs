@@ -512,12 +512,17 @@ mod tests {
         m.draw(&p, grid, 0.8, &mut cells, &mut vec![false; grid.len()]);
         let line: Vec<usize> = (0..=40)
             .map(|k| {
-                let (r, c) = grid.cell_of(3.025, -1.0 + 0.05 * k as f32 + 0.025).expect("in");
+                let (r, c) = grid
+                    .cell_of(3.025, -1.0 + 0.05 * k as f32 + 0.025)
+                    .expect("in");
                 grid.index(r, c)
             })
             .collect();
         for i in &line {
-            assert!(cells.contains(i), "cell {i} of the pane or its gap is drawn");
+            assert!(
+                cells.contains(i),
+                "cell {i} of the pane or its gap is drawn"
+            );
         }
         assert_eq!(cells.len(), line.len(), "nothing off the pane: {cells:?}");
     }
