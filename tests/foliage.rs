@@ -159,6 +159,9 @@ fn foliage_eval_alarms_on_a_trunk_in_the_clear_from_the_second_scan() {
     assert_eq!(json_number(trunk, "visible"), Some(20), "{trunk}");
     assert_eq!(json_number(trunk, "alarmed"), Some(19), "{trunk}");
     assert_eq!(json_number(trunk, "delay_scans"), Some(1), "{trunk}");
+    // in the clear every view of it is a run of neighbouring returns
+    assert_eq!(json_number(trunk, "visible_run"), Some(20), "{trunk}");
+    assert_eq!(json_number(trunk, "alarmed_run"), Some(19), "{trunk}");
     let rock = obstacles
         .iter()
         .find(|o| {
@@ -167,6 +170,17 @@ fn foliage_eval_alarms_on_a_trunk_in_the_clear_from_the_second_scan() {
         .unwrap_or_else(|| panic!("the rock at (3, -1) in {episode}"));
     assert_eq!(json_number(rock, "out_of_beam"), Some(20), "{rock}");
     assert_eq!(json_number(rock, "visible"), Some(0), "{rock}");
+    assert_eq!(json_number(rock, "visible_run"), Some(0), "{rock}");
+    // no 0.3 m trunk 2 m away spans 200 consecutive firings (0.2° apart)
+    let (stdout, stderr, ok) = foliage_eval(
+        "obstacles_clear",
+        &["--scans", "3", "--motion", "standing", "--min-run", "200"],
+    );
+    assert!(ok, "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("visible as a run (≥ 200 consecutive returns on it): –"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -180,6 +194,7 @@ fn foliage_eval_refuses_bad_arguments_clearly() {
             &["--min-returns", "0"][..],
             "--min-returns must be at least 1",
         ),
+        (&["--min-run", "0"][..], "--min-run must be at least 1"),
         (
             &["--robot", "turtlebot2", "--speed", "3"][..],
             "above turtlebot2's top speed",

@@ -292,9 +292,16 @@ impl Mapper {
         out.extend((0..self.params.grid.len()).map(|i| self.layer_value(j, i)));
     }
 
+    /// Every layer's I_j, one layer after the other (each row-major), as `map/layers` carries
+    /// them.
+    pub fn layers(&self) -> impl Iterator<Item = f32> + '_ {
+        let n2 = self.params.grid.len();
+        (0..self.bounds.len()).flat_map(move |j| (0..n2).map(move |i| self.layer_value(j, i)))
+    }
+
     /// Layer j of cell i as the paper's I_j (eq. 1): Σ (intensity / R) / g².
     #[inline]
-    pub fn layer_value(&self, j: usize, i: usize) -> f32 {
+    fn layer_value(&self, j: usize, i: usize) -> f32 {
         self.layer[i * self.bounds.len() + j].sum * self.layer_scale
     }
 

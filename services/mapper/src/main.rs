@@ -173,10 +173,8 @@ fn run(config: &Config) -> Result<()> {
             if let Err(e) = plan_pub.publish_from_iter(header, classes.len(), plan) {
                 faults.record("publish_failed", Instant::now(), e);
             }
-            let n2 = grid.len();
-            let layers = (0..n_layers).flat_map(|j| (0..n2).map(move |i| (j, i)));
-            let layers = layers.map(|(j, i)| mapper.layer_value(j, i));
-            if let Err(e) = layers_pub.publish_from_iter(header, n_layers * n2, layers) {
+            let len = n_layers * grid.len();
+            if let Err(e) = layers_pub.publish_from_iter(header, len, mapper.layers()) {
                 faults.record("publish_failed", Instant::now(), e);
             }
             tracing::debug!(

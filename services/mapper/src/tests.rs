@@ -56,6 +56,11 @@ fn equation_1_sums_normalised_intensity_over_the_cell_area() {
         v[g.index(r, c)]
     );
     assert_eq!(v.iter().filter(|&&x| x > 0.0).count(), 1);
+    // map/layers carries the layers one after the other: this one at its place
+    let all: Vec<f32> = m.layers().collect();
+    assert_eq!(all.len(), m.layer_count() * g.len());
+    assert_eq!(&all[above * g.len()..(above + 1) * g.len()], &v[..]);
+    assert_eq!(all.iter().filter(|&&x| x > 0.0).count(), 1);
 }
 
 #[test]

@@ -306,8 +306,8 @@ pub fn run_episode(
     let (mut angles, mut ranges) = (Vec::new(), Vec::new());
     let n = obstacles.len();
     let (mut los, mut on, mut hits) = (vec![0usize; n], vec![0usize; n], vec![0usize; n]);
-    // per obstacle: the current and the longest run of consecutive returns on it
-    let (mut run, mut longest) = (vec![0usize; n], vec![0usize; n]);
+    // per obstacle: the longest run of consecutive returns on it
+    let mut longest = vec![0usize; n];
     let mut on_return: Vec<Option<usize>> = Vec::new();
     while episode.scans < scans {
         if sim.outcome() != Outcome::Running {
@@ -335,8 +335,9 @@ pub fn run_episode(
         los.fill(0);
         on.fill(0);
         hits.fill(0);
-        run.fill(0);
         longest.fill(0);
+        // the run going on: (obstacle, returns so far); a return is on one obstacle at most
+        let mut run: Option<(usize, usize)> = None;
         angles.clear();
         ranges.clear();
         for (r, t) in scan.iter().zip(&truth) {
@@ -360,9 +361,12 @@ pub fn run_episode(
             if let Some(k) = counted {
                 on[k] += 1;
             }
-            for (j, len) in run.iter_mut().enumerate() {
-                *len = if counted == Some(j) { *len + 1 } else { 0 };
-                longest[j] = longest[j].max(*len);
+            run = counted.map(|k| match run {
+                Some((j, len)) if j == k => (k, len + 1),
+                _ => (k, 1),
+            });
+            if let Some((k, len)) = run {
+                longest[k] = longest[k].max(len);
             }
             on_return.push(is_on);
             angles.push(r.angle_rad);
