@@ -367,6 +367,23 @@ pub struct MapperConfig {
     /// through, is solid whatever its intensity and height: a surface that stops every beam
     /// (a trunk seen through grass returns faintly, below Γ, but lets nothing past).
     pub stop_min_returns: u32,
+    /// Surface along a ring: two downward last returns of one laser lie on the same surface when
+    /// their ranges differ by less than this, m.
+    pub surface_tolerance_m: f64,
+    /// Surface along a ring: the firings on each side of a return that are compared with it.
+    pub surface_window: u32,
+    /// Surface along a ring: a return with at least this many of those neighbours on its surface
+    /// is on a surface (foliage returns at scattered ranges).
+    pub surface_neighbours: u32,
+    /// A cell with at least this many returns on a surface in one revolution is solid whatever
+    /// its intensity (0: the cue is off).
+    pub surface_min_returns: u32,
+    /// Cells the surface cue made solid stay solid this long while the robot moves (0: not
+    /// kept), s: an obstacle lower than the lowest beam's reach next to the robot is out of
+    /// sight once the robot is beside it.
+    pub surface_memory_s: f64,
+    /// Kept surface cells farther than this from the robot are forgotten, m.
+    pub surface_memory_m: f64,
     /// Glass: a spike's returns reach at least this intensity (the top of the diffuse range).
     pub glass_intensity: f64,
     /// Glass: the spike rises and falls by at least this much.
@@ -402,6 +419,12 @@ impl Default for MapperConfig {
             opaque_min: 0.05,
             tall_m: 1.0,
             stop_min_returns: 16,
+            surface_tolerance_m: 0.04,
+            surface_window: 8,
+            surface_neighbours: 8,
+            surface_min_returns: 2,
+            surface_memory_s: 3.0,
+            surface_memory_m: 3.0,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -455,6 +478,40 @@ impl MapperConfig {
             1.0,
             10000.0,
         );
+        r.check(
+            "mapper.surface_tolerance_m",
+            self.surface_tolerance_m,
+            0.001,
+            1.0,
+        );
+        r.check(
+            "mapper.surface_window",
+            f64::from(self.surface_window),
+            1.0,
+            64.0,
+        );
+        r.check(
+            "mapper.surface_neighbours",
+            f64::from(self.surface_neighbours),
+            1.0,
+            128.0,
+        );
+        r.require(
+            self.surface_neighbours <= 2 * self.surface_window,
+            format!(
+                "mapper.surface_neighbours = {} must be at most 2 × mapper.surface_window = {}",
+                self.surface_neighbours,
+                2 * self.surface_window
+            ),
+        );
+        r.check(
+            "mapper.surface_min_returns",
+            f64::from(self.surface_min_returns),
+            0.0,
+            10000.0,
+        );
+        r.check("mapper.surface_memory_s", self.surface_memory_s, 0.0, 600.0);
+        r.check("mapper.surface_memory_m", self.surface_memory_m, 0.0, 100.0);
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,
@@ -1193,6 +1250,18 @@ mod tests {
         );
         let e = parse("[velodyne]\ninput = \"pcap\"\n").expect_err("pcap without file");
         assert!(e.to_string().contains("velodyne.pcap"), "{e}");
+    }
+
+    #[test]
+    fn surface_cue_needs_no_more_neighbours_than_its_window_holds() {
+        let e =
+            parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 7\n").expect_err("7 of 6");
+        assert_eq!(
+            e.to_string(),
+            "test.toml: mapper.surface_neighbours = 7 must be at most 2 × mapper.surface_window = 6"
+        );
+        assert!(parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 6\n").is_ok());
+        assert!(parse("[mapper]\nsurface_min_returns = 0\nsurface_memory_s = 0\n").is_ok());
     }
 
     #[test]

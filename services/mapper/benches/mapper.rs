@@ -44,11 +44,13 @@ fn time(name: &str, revs: &[Vec<Point>]) {
         .unwrap_or_default();
     println!(
         "{name}: {points} points a revolution: mean {:.0} µs, best {best:.0} µs ({n} revolutions); \
-         glass cells detected {}, in memory {}, extrapolated {}",
+         glass cells detected {}, in memory {}, extrapolated {}; surface cells found {}, in memory {}",
         total / n as f64,
         stats.glass_detected,
         stats.glass_memory,
-        stats.glass_extended
+        stats.glass_extended,
+        stats.surface_found,
+        stats.surface_memory
     );
 }
 

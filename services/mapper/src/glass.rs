@@ -141,6 +141,22 @@ impl GlassMemory {
         self.entries.insert(key, (ox, oy, now_ns));
     }
 
+    /// Forgets every entry.
+    pub fn clear(&mut self) {
+        self.entries.clear();
+    }
+
+    /// True when an entry lies in the cell of robot-frame (x, y) seen from `pose`, or in one of
+    /// the eight cells around it.
+    pub fn holds_near(&self, pose: &Pose2, x: f64, y: f64) -> bool {
+        let (ox, oy) = pose.to_odom(x, y);
+        let (kx, ky) = (
+            (ox / self.cell_m).floor() as i64,
+            (oy / self.cell_m).floor() as i64,
+        );
+        (-1..=1).any(|dx| (-1..=1).any(|dy| self.entries.contains_key(&(kx + dx, ky + dy))))
+    }
+
     /// Forgets entries older than `max_age_ns` or farther than `max_distance_m` from `pose`.
     pub fn expire(&mut self, pose: &Pose2, now_ns: u64, max_age_ns: u64, max_distance_m: f64) {
         self.entries.retain(|_, (x, y, t)| {

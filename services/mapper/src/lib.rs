@@ -26,6 +26,19 @@
 //! most of its energy on the way), but grass lets some beam on from nearly every cell it returns
 //! from. (Single-return sensors give none of these cues: then
 //! equation 3 alone decides.)
+//!
+//! One cue works in every return mode: the foliage paper's (`foliage-discrimination-rotating-
+//! ladar.txt`, FIND-LOW-FREQ) observation that along one laser's scan the range of a solid
+//! surface changes slowly from firing to firing while foliage returns at scattered ranges. A
+//! downward beam's last return with enough of its neighbouring firings at the same range
+//! (`surface_tolerance_m`, `surface_window`, `surface_neighbours`) lies on a surface when no beam
+//! passed through its cell below it, and a cell that is not bright, tall or opaque is solid with
+//! `surface_min_returns` such returns: a rock below the grass tops, whose echoes are as faint as
+//! the blades' and whose cells the blades above it let beams through (a curtain lets them through
+//! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
+//! range all along the ring. Cells the cue finds in two revolutions in a row are kept in the
+//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`): a rock lower than the
+//! lowest beam reaches beside the robot is out of sight while the robot passes it.
 #![deny(missing_docs)]
 
 pub mod baseline;
@@ -67,6 +80,18 @@ pub struct MapperParams {
     pub stop_min_returns: u16,
     /// Returns with none passed through that make a cell solid.
     pub min_returns_solid: u16,
+    /// Surface along a ring: ranges within this lie on one surface, m.
+    pub surface_tolerance_m: f32,
+    /// Surface along a ring: firings compared on each side.
+    pub surface_window: usize,
+    /// Surface along a ring: neighbours on the same surface that make a return a surface return.
+    pub surface_neighbours: usize,
+    /// Surface returns in one revolution that make a cell solid (0: off).
+    pub surface_min_returns: u16,
+    /// Surface cells are kept this long, ns (0: not kept).
+    pub surface_memory_ns: u64,
+    /// Kept surface cells farther than this are forgotten, m.
+    pub surface_memory_m: f64,
     /// Glass spike detector.
     pub spike: SpikeParams,
     /// Glass memory: age limit, ns.
@@ -97,6 +122,12 @@ impl MapperParams {
             tall_m: m.tall_m,
             stop_min_returns: m.stop_min_returns.min(u32::from(u16::MAX)) as u16,
             min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
+            surface_tolerance_m: m.surface_tolerance_m as f32,
+            surface_window: m.surface_window as usize,
+            surface_neighbours: m.surface_neighbours as usize,
+            surface_min_returns: m.surface_min_returns.min(u32::from(u16::MAX)) as u16,
+            surface_memory_ns: (m.surface_memory_s * 1e9) as u64,
+            surface_memory_m: m.surface_memory_m,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
                 gradient: m.glass_gradient as f32,
@@ -155,6 +186,10 @@ pub struct UpdateStats {
     pub glass_memory: u32,
     /// Cells added by extending panes to the solids that hold them.
     pub glass_extended: u32,
+    /// Cells the surface cue made solid in this revolution.
+    pub surface_found: u32,
+    /// Entries in the surface memory.
+    pub surface_memory: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -189,10 +224,34 @@ pub struct Mapper {
     classes: Vec<u8>,
     cost: Vec<u8>,
     memory: GlassMemory,
+    /// Cells the surface cue made solid, kept in the odometry frame like glass.
+    surface_memory: GlassMemory,
+    /// Cells the surface cue made solid in the last revolutions (a cell is kept once the cue
+    /// finds it again).
+    surface_seen: GlassMemory,
+    /// Cells the surface cue made solid in this revolution.
+    surface_cells: Vec<usize>,
+    /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
+    surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
     rings: Vec<Vec<(RingReturn, u32)>>,
+    /// Per laser, in firing order: each firing's last return (for the surface cue).
+    last_rings: Vec<Vec<LastReturn>>,
     spikes: Vec<bool>,
 }
+
+/// A firing's last return along its laser's ring.
+#[derive(Debug, Clone, Copy)]
+struct LastReturn {
+    /// Range, m; NaN for ground (never on the same surface as anything).
+    range: f32,
+    /// Height, sensor frame, m.
+    z: f32,
+    /// The cell it votes for, or [`NO_CELL`] (upward beams, outside the grid, ground).
+    cell: u32,
+}
+
+const NO_CELL: u32 = u32::MAX;
 
 /// A weak echo at most this far behind a bright echo of the same firing is the inside of the
 /// same object (a dense bush returns its front brightly and a trace from within), m.
@@ -259,8 +318,13 @@ impl Mapper {
             classes: vec![cell_class::UNKNOWN; n2],
             cost: vec![0; n2],
             memory: GlassMemory::new(f64::from(params.grid.cell_m)),
+            surface_memory: GlassMemory::new(f64::from(params.grid.cell_m)),
+            surface_seen: GlassMemory::new(f64::from(params.grid.cell_m)),
+            surface_cells: Vec::new(),
+            surface_candidate: vec![false; n2],
             last_pose: None,
             rings: vec![Vec::new(); 16],
+            last_rings: vec![Vec::new(); 16],
             spikes: Vec::new(),
             params,
         }
@@ -350,6 +414,10 @@ impl Mapper {
         for r in &mut self.rings {
             r.clear();
         }
+        for r in &mut self.last_rings {
+            r.clear();
+        }
+        let surface_cue = self.params.surface_min_returns > 0;
         let grid = self.params.grid;
         let ground_z = -(self.params.sensor_height_m - self.params.ground_clearance_m) as f32;
         let (below, above, zero, minus) =
@@ -429,7 +497,12 @@ impl Mapper {
                     if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
                         let ni = grid.index(nr, nc);
                         touch(&mut self.dirty, &mut self.touched, ni);
-                        self.evidence[ni].passed = self.evidence[ni].passed.saturating_add(1);
+                        let near_z = if q_nearer { q.z } else { p.z };
+                        let e = &mut self.evidence[ni];
+                        if e.passed == 0 || near_z < e.pass_low_z {
+                            e.pass_low_z = near_z;
+                        }
+                        e.passed = e.passed.saturating_add(1);
                     }
                     // the beam ended on its strongest echo (p is the last return, q the
                     // second strongest): it stopped on something more reflective than
@@ -454,15 +527,50 @@ impl Mapper {
                     self.evidence[fi].inside = self.evidence[fi].inside.saturating_add(1);
                 }
             }
+            let cell = if p.z < ground_z {
+                None
+            } else {
+                grid.cell_of(p.x, p.y).map(|(r, c)| grid.index(r, c))
+            };
+            // one return per firing: the last (or only) one; in dual mode the second strongest
+            // follows the last return of its firing and is left out
+            let pair_second = p.return_type == return_type::STRONGEST
+                && k > 0
+                && points[k - 1].return_type == return_type::LAST
+                && points[k - 1].laser_id == p.laser_id
+                && points[k - 1].azimuth_cdeg == p.azimuth_cdeg;
+            // (a laser's elevation is fixed: its ring is all downward or all upward)
+            if surface_cue
+                && p.z < 0.0
+                && !pair_second
+                && let Some(ring) = self.last_rings.get_mut(usize::from(p.laser_id))
+            {
+                ring.push(match cell {
+                    _ if p.z < ground_z => LastReturn {
+                        range: f32::NAN,
+                        z: p.z,
+                        cell: NO_CELL,
+                    },
+                    Some(i) => LastReturn {
+                        range: d,
+                        z: p.z,
+                        cell: i as u32,
+                    },
+                    None => LastReturn {
+                        range: d,
+                        z: p.z,
+                        cell: NO_CELL,
+                    },
+                });
+            }
             if p.z < ground_z {
                 stats.ground += 1;
                 continue;
             }
-            let Some((r, c)) = grid.cell_of(p.x, p.y) else {
+            let Some(i) = cell else {
                 stats.outside += 1;
                 continue;
             };
-            let i = grid.index(r, c);
             let mut any = false;
             for (j, b) in self.bounds.iter().enumerate() {
                 if in_layer(b, p.z, sin_el) {
@@ -573,6 +681,7 @@ impl Mapper {
         }
         self.cost.fill(0);
         let gamma = self.params.gamma;
+        self.surface_cells.clear();
         let solid_max_abs = self.params.solid_max * self.params.full_scale;
         let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
         for t in 0..self.touched.len() {
@@ -600,6 +709,9 @@ impl Mapper {
             // many returns and not one beam through: a surface that stops every beam, however
             // faint (grass lets some beams on from nearly every cell it returns from)
             let stops = e.passed == 0 && e.hits >= self.params.stop_min_returns;
+            // the surface cue looks at cells that stand out neither by brightness or height nor
+            // as an opaque surface (walls: the memory stays small)
+            self.surface_candidate[i] = surface_cue && !tall && !bright && !opaque;
             if mean <= gamma && !opaque && !tall && !stops && !bright {
                 self.classes[i] = cell_class::PASSABLE;
                 self.cost[i] = self.params.passable_cost;
@@ -608,6 +720,24 @@ impl Mapper {
                 self.cost[i] = 255;
             }
         }
+        if surface_cue {
+            // returns on a surface along the ring: a rock hidden in grass
+            self.mark_surfaces();
+            for t in 0..self.touched.len() {
+                let i = self.touched[t] as usize;
+                if self.surface_candidate[i] {
+                    self.surface_candidate[i] = false;
+                    if self.evidence[i].surface >= self.params.surface_min_returns {
+                        self.classes[i] = cell_class::SOLID;
+                        self.cost[i] = 255;
+                        self.surface_cells.push(i);
+                    }
+                }
+            }
+        }
+        stats.surface_found = self.surface_cells.len() as u32;
+        self.remember_surfaces(odom, now_ns);
+        stats.surface_memory = self.surface_memory.len() as u32;
         for &i in &self.glass_drawn {
             if self.classes[i] != cell_class::SOLID {
                 self.classes[i] = cell_class::GLASS;
@@ -638,6 +768,90 @@ impl Mapper {
     }
 }
 
+impl Mapper {
+    /// Keeps this revolution's surface cells in the odometry frame and draws the kept ones as
+    /// solid: a rock lower than the lowest beam reaches beside the robot is out of sight while
+    /// the robot passes it. Like the glass memory, it does not move without fresh odometry.
+    fn remember_surfaces(&mut self, odom: OdomInput, now_ns: u64) {
+        if self.params.surface_memory_ns == 0 {
+            return;
+        }
+        let grid = self.params.grid;
+        if let OdomInput::Fresh(Odom { pose, .. }) = odom {
+            // kept once found again: a rock is on its surface revolution after revolution,
+            // a curtain's swaying strands only now and then
+            for &i in &self.surface_cells {
+                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+                let (x, y) = (f64::from(x), f64::from(y));
+                if self.surface_seen.holds_near(&pose, x, y) {
+                    self.surface_memory.add(&pose, x, y, now_ns);
+                }
+            }
+            self.surface_seen.clear();
+            for &i in &self.surface_cells {
+                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+                self.surface_seen
+                    .add(&pose, f64::from(x), f64::from(y), now_ns);
+            }
+            self.surface_memory.expire(
+                &pose,
+                now_ns,
+                self.params.surface_memory_ns,
+                self.params.surface_memory_m,
+            );
+        }
+        let Some(pose) = self.last_pose else { return };
+        let mut kept = std::mem::take(&mut self.surface_cells);
+        kept.clear();
+        self.surface_memory
+            .draw(&pose, grid, 0.0, &mut kept, &mut self.glass_marked);
+        for &i in &kept {
+            if self.classes[i] != cell_class::GLASS {
+                self.classes[i] = cell_class::SOLID;
+                self.cost[i] = 255;
+            }
+        }
+        self.surface_cells = kept;
+    }
+
+    /// The surface cue: every downward last return with at least `surface_neighbours` of the
+    /// `surface_window` firings on each side within `surface_tolerance_m` of its range counts
+    /// as a surface return in its cell. Only the candidates (cells not bright, tall or opaque)
+    /// are looked at.
+    fn mark_surfaces(&mut self) {
+        let w = self.params.surface_window;
+        let need = self.params.surface_neighbours;
+        let tol = self.params.surface_tolerance_m;
+        for ring in &self.last_rings {
+            for (k, lr) in ring.iter().enumerate() {
+                if lr.cell == NO_CELL || !self.surface_candidate[lr.cell as usize] {
+                    continue;
+                }
+                let i = lr.cell as usize;
+                let e = &mut self.evidence[i];
+                // below every beam that passed through the cell: a curtain lets beams through
+                // at every height, grass over a rock only above the rock
+                if e.passed > 0 && lr.z >= e.pass_low_z {
+                    continue;
+                }
+                // the return itself is within the tolerance of itself: need + 1 in the window;
+                // stop counting as soon as they are there (a wall gets there in need + 1 steps)
+                let near = &ring[k.saturating_sub(w)..(k + w + 1).min(ring.len())];
+                let mut same = 0;
+                for q in near {
+                    same += usize::from((q.range - lr.range).abs() < tol);
+                    if same > need {
+                        break;
+                    }
+                }
+                if same > need {
+                    e.surface = e.surface.saturating_add(1);
+                }
+            }
+        }
+    }
+}
+
 /// Glass cells closer than this belong to one pane when extrapolating, m.
 const EXTEND_LINK_M: f32 = 0.3;
 
@@ -662,6 +876,11 @@ struct Evidence {
     inside: u16,
     /// Last returns much stronger than the rest of their firing.
     stopped: u16,
+    /// Downward last returns on a surface along their ring, lower than any beam passed
+    /// through the cell.
+    surface: u16,
+    /// Height of the lowest return a beam passed through (with `passed` > 0), sensor frame, m.
+    pass_low_z: f32,
     /// Height of the highest return, sensor frame, m.
     top_z: f32,
 }

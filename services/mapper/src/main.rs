@@ -184,6 +184,8 @@ fn run(config: &Config) -> Result<()> {
                 processing_us,
                 glass_detected = stats.glass_detected,
                 glass_memory = stats.glass_memory,
+                surface_found = stats.surface_found,
+                surface_memory = stats.surface_memory,
                 status,
                 "map"
             );

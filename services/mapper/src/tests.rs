@@ -340,3 +340,146 @@ fn glass_memory_expires_by_age() {
     m.update(&[], OdomInput::Fresh(Odom::default()), 2_000_000_000);
     assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
 }
+
+/// One downward laser's ring across a rock hidden in grass: each firing crosses a blade 0.8 m
+/// out, then ends faintly on the rock's face 1.5 m ahead (x = 1.5, 0.15 m above the ground),
+/// its range scaled by `scatter(k)` (1: the face itself). Another laser's beams pass through
+/// blades above the rock (0.05 m below the sensor, 0.45 m above the ground) in the same cells
+/// and go on 1.5 m. Like the firings of a revolution, all in one slice.
+fn rock_in_grass(scatter: impl Fn(usize) -> f32) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for k in 0..30 {
+        let y = 0.1 - 0.2 * k as f32 / 29.0;
+        let s = scatter(k);
+        pts.extend(through_blade(1.5 * s, y * s, -0.35 * s, 0.8, 1));
+        let over = (1.5f32 * 1.5 + y * y + 0.05 * 0.05).sqrt();
+        pts.extend(through_blade(3.0, 2.0 * y, -0.1, over, 5));
+    }
+    pts
+}
+
+fn fresh(x: f64, y: f64) -> OdomInput {
+    OdomInput::Fresh(Odom {
+        pose: Pose2 { x, y, yaw: 0.0 },
+        v: 0.0,
+        omega: 0.0,
+    })
+}
+
+#[test]
+fn a_rock_below_the_grass_tops_is_solid_by_its_surface_along_the_ring() {
+    let rock = rock_in_grass(|_| 1.0);
+    let mut m = mapper();
+    m.update(&rock, OdomInput::Missing, 0);
+    for y in [0.08, 0.0, -0.08] {
+        assert_eq!(
+            class_at(&m, 1.5, y),
+            cell_class::SOLID,
+            "the face at y = {y}"
+        );
+        let g = m.params().grid;
+        let (r, c) = g.cell_of(1.5, y).expect("inside");
+        let (_, _, passed, means) = m.cell_evidence(g.index(r, c));
+        assert!(passed > 0, "beams passed through the blades above the rock");
+        assert!(
+            means.iter().all(|&v| v <= 0.3),
+            "as faint as grass: {means:?}"
+        );
+    }
+    // it is the surface cue that says so
+    let mut off = Mapper::new(MapperParams {
+        surface_min_returns: 0,
+        ..MapperParams::default()
+    });
+    off.update(&rock, OdomInput::Missing, 0);
+    assert_eq!(class_at(&off, 1.5, 0.0), cell_class::PASSABLE);
+    // blades at scattered ranges along the ring are not a surface
+    let grass = rock_in_grass(|k| 1.0 + 0.4 * ((k as f32 * 0.618).fract() - 0.5));
+    let mut m = mapper();
+    m.update(&grass, OdomInput::Missing, 0);
+    for p in grass.iter().filter(|p| p.laser_id == 1) {
+        assert_ne!(
+            class_at(&m, p.x, p.y),
+            cell_class::SOLID,
+            "a blade at ({}, {}) in scattered grass",
+            p.x,
+            p.y
+        );
+    }
+    // (the ring behind, 3 m out, where the passing beams end, is a surface: solid)
+    assert_eq!(class_at(&m, 3.0, 0.0), cell_class::SOLID);
+}
+
+#[test]
+fn a_surface_that_beams_pass_below_or_an_upward_ring_is_not_solid() {
+    // a curtain: the beams over the face become beams under it (0.1 m above the ground)
+    let curtain: Vec<Point> = rock_in_grass(|_| 1.0)
+        .into_iter()
+        .map(|p| {
+            if p.laser_id == 5 {
+                Point { z: -0.8, ..p }
+            } else {
+                p
+            }
+        })
+        .collect();
+    let mut m = mapper();
+    m.update(&curtain, OdomInput::Missing, 0);
+    assert_eq!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::PASSABLE,
+        "beams pass below"
+    );
+    // the same face seen by a laser pointing up: where such a beam leaves a canopy its last
+    // blades lie at one range all along the ring
+    let up: Vec<Point> = rock_in_grass(|_| 1.0)
+        .into_iter()
+        .filter(|p| p.laser_id == 1)
+        .map(|p| Point { z: 0.2, ..p })
+        .collect();
+    let mut m = mapper();
+    m.update(&up, OdomInput::Missing, 0);
+    assert_eq!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::PASSABLE,
+        "an upward ring"
+    );
+}
+
+#[test]
+fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry() {
+    let rock = rock_in_grass(|_| 1.0);
+    let s = 1_000_000_000u64;
+    // found once: not kept
+    let mut m = mapper();
+    m.update(&rock, fresh(0.0, 0.0), 0);
+    m.update(&[], fresh(0.0, 0.0), s / 10);
+    assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "seen once");
+    // found in two revolutions: kept while the robot drives 1 m towards it, out of sight
+    let mut m = mapper();
+    m.update(&rock, fresh(0.0, 0.0), 0);
+    m.update(&rock, fresh(0.0, 0.0), s / 10);
+    m.update(&[], fresh(1.0, 0.0), 2 * s);
+    assert_eq!(
+        class_at(&m, 0.5, 0.0),
+        cell_class::SOLID,
+        "kept, 1 m nearer"
+    );
+    assert_ne!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::SOLID,
+        "not where it was"
+    );
+    // forgotten after surface_memory_s (3 s)
+    m.update(&[], fresh(1.0, 0.0), 4 * s);
+    assert_ne!(class_at(&m, 0.5, 0.0), cell_class::SOLID, "expired");
+    // and not kept at all with surface_memory_s = 0
+    let mut m = Mapper::new(MapperParams {
+        surface_memory_ns: 0,
+        ..MapperParams::default()
+    });
+    m.update(&rock, fresh(0.0, 0.0), 0);
+    m.update(&rock, fresh(0.0, 0.0), s / 10);
+    m.update(&[], fresh(0.0, 0.0), s / 5);
+    assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "memory off");
+}

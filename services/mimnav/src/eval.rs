@@ -177,6 +177,8 @@ pub struct Episode {
     pub map_ns: u128,
     /// The robot's (x, y) once a revolution.
     pub trajectory: Vec<(f64, f64)>,
+    /// With a contact: the centre of the object touched (its bounding circle's), world frame.
+    pub touched: Option<[f64; 2]>,
 }
 
 /// Runs one episode of `scene` with `method` and `seed`.
@@ -227,6 +229,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         plan_ns: 0,
         map_ns: 0,
         trajectory: vec![(scene.start[0], scene.start[1])],
+        touched: None,
     };
     let r = &config.robot;
     let (low, high) = (
@@ -325,7 +328,10 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     episode.elapsed_s = sim.elapsed_s();
     episode.ending = match sim.outcome() {
         Outcome::GoalReached => Ending::Success,
-        Outcome::Contact(_) => Ending::Contact,
+        Outcome::Contact(i) => {
+            episode.touched = scene.objects.get(i).map(|o| o.bound.0);
+            Ending::Contact
+        }
         _ => {
             // revolutions in the last 10 s
             let revs = (10.0 * config.velodyne.rpm / 60.0) as usize;
@@ -545,7 +551,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
     if args.json {
         for e in &episodes {
             println!(
-                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"alarms\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1}}}",
+                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"alarms\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1},\"touched\":{}}}",
                 e.world,
                 e.method.key(),
                 e.seed,
@@ -559,7 +565,9 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 e.score.solid.f_score(),
                 e.score.passable.f_score(),
                 e.score.glass.f_score(),
-                e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64
+                e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64,
+                e.touched
+                    .map_or("null".to_string(), |[x, y]| format!("[{x:.2},{y:.2}]"))
             );
         }
     }
