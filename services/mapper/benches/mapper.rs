@@ -1,6 +1,7 @@
 //! One revolution through the whole mapper (binning into n = 200, m = 4 layers, classes, glass
 //! detection and memory, plan cost), one core: the real dual-return capture's revolutions, and a
-//! simulated revolution of scenario 1 (glass in view) for comparison.
+//! simulated revolution of scenario 1 (glass in view) for comparison; each also with the surface
+//! cue off (`mapper.surface_min_returns = 0`), to show what the cue costs.
 //!
 //! `cargo bench -p mimnav-mapper --bench mapper`
 
@@ -14,7 +15,16 @@ use mimnav_velodyne::capture::CaptureReader;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 fn time(name: &str, revs: &[Vec<Point>]) {
-    let mut mapper = Mapper::new(MapperParams::default());
+    time_with(name, MapperParams::default(), revs);
+    let off = MapperParams {
+        surface_min_returns: 0,
+        ..MapperParams::default()
+    };
+    time_with(&format!("{name}, surface cue off"), off, revs);
+}
+
+fn time_with(name: &str, params: MapperParams, revs: &[Vec<Point>]) {
+    let mut mapper = Mapper::new(params);
     let odom = OdomInput::Fresh(Odom {
         pose: Pose2::default(),
         v: 0.3,

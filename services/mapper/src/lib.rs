@@ -231,6 +231,8 @@ pub struct Mapper {
     surface_seen: GlassMemory,
     /// Cells the surface cue made solid in this revolution.
     surface_cells: Vec<usize>,
+    /// Cells the surface memory covers, this revolution.
+    surface_drawn: Vec<usize>,
     /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
@@ -247,7 +249,7 @@ struct LastReturn {
     range: f32,
     /// Height, sensor frame, m.
     z: f32,
-    /// The cell it votes for, or [`NO_CELL`] (upward beams, outside the grid, ground).
+    /// The cell it votes for, or [`NO_CELL`] (outside the grid, ground).
     cell: u32,
 }
 
@@ -321,6 +323,7 @@ impl Mapper {
             surface_memory: GlassMemory::new(f64::from(params.grid.cell_m)),
             surface_seen: GlassMemory::new(f64::from(params.grid.cell_m)),
             surface_cells: Vec::new(),
+            surface_drawn: Vec::new(),
             surface_candidate: vec![false; n2],
             last_pose: None,
             rings: vec![Vec::new(); 16],
@@ -532,35 +535,22 @@ impl Mapper {
             } else {
                 grid.cell_of(p.x, p.y).map(|(r, c)| grid.index(r, c))
             };
-            // one return per firing: the last (or only) one; in dual mode the second strongest
-            // follows the last return of its firing and is left out
-            let pair_second = p.return_type == return_type::STRONGEST
-                && k > 0
-                && points[k - 1].return_type == return_type::LAST
-                && points[k - 1].laser_id == p.laser_id
-                && points[k - 1].azimuth_cdeg == p.azimuth_cdeg;
-            // (a laser's elevation is fixed: its ring is all downward or all upward)
+            // one return per firing for the surface cue, on downward rings only (a laser's
+            // elevation is fixed: its ring is all downward or all upward): the last (or only)
+            // one; in dual mode the second strongest follows the last return of its firing
             if surface_cue
                 && p.z < 0.0
-                && !pair_second
+                && !(p.return_type == return_type::STRONGEST
+                    && k > 0
+                    && points[k - 1].return_type == return_type::LAST
+                    && points[k - 1].laser_id == p.laser_id
+                    && points[k - 1].azimuth_cdeg == p.azimuth_cdeg)
                 && let Some(ring) = self.last_rings.get_mut(usize::from(p.laser_id))
             {
-                ring.push(match cell {
-                    _ if p.z < ground_z => LastReturn {
-                        range: f32::NAN,
-                        z: p.z,
-                        cell: NO_CELL,
-                    },
-                    Some(i) => LastReturn {
-                        range: d,
-                        z: p.z,
-                        cell: i as u32,
-                    },
-                    None => LastReturn {
-                        range: d,
-                        z: p.z,
-                        cell: NO_CELL,
-                    },
+                ring.push(LastReturn {
+                    range: if p.z < ground_z { f32::NAN } else { d },
+                    z: p.z,
+                    cell: cell.map_or(NO_CELL, |i| i as u32),
                 });
             }
             if p.z < ground_z {
@@ -801,17 +791,20 @@ impl Mapper {
             );
         }
         let Some(pose) = self.last_pose else { return };
-        let mut kept = std::mem::take(&mut self.surface_cells);
-        kept.clear();
-        self.surface_memory
-            .draw(&pose, grid, 0.0, &mut kept, &mut self.glass_marked);
-        for &i in &kept {
+        self.surface_drawn.clear();
+        self.surface_memory.draw(
+            &pose,
+            grid,
+            0.0,
+            &mut self.surface_drawn,
+            &mut self.glass_marked,
+        );
+        for &i in &self.surface_drawn {
             if self.classes[i] != cell_class::GLASS {
                 self.classes[i] = cell_class::SOLID;
                 self.cost[i] = 255;
             }
         }
-        self.surface_cells = kept;
     }
 
     /// The surface cue: every downward last return with at least `surface_neighbours` of the
