@@ -248,6 +248,9 @@ fn sysusers_and_tmpfiles_entries_make_the_user_and_the_runtime_folder() {
         println!("SKIP tmpfiles --create: not root");
         return;
     }
+    // a stand-in for the PM QoS device, which the z line hands to the mimnav group
+    std::fs::create_dir_all(t.0.join("dev")).unwrap();
+    std::fs::write(t.0.join("dev/cpu_dma_latency"), b"").unwrap();
     let o = Command::new("systemd-tmpfiles")
         .arg(format!("--root={}", t.0.display()))
         .args(["--create", "mimnav.conf"])
@@ -258,6 +261,21 @@ fn sysusers_and_tmpfiles_entries_make_the_user_and_the_runtime_folder() {
     use std::os::unix::fs::MetadataExt;
     assert_eq!(meta.uid(), uid);
     assert_eq!(meta.mode() & 0o777, 0o750);
+    let group = std::fs::read_to_string(t.0.join("etc/group")).expect("group");
+    let gid: u32 = group
+        .lines()
+        .find(|l| l.starts_with("mimnav:"))
+        .and_then(|l| l.split(':').nth(2))
+        .and_then(|g| g.parse().ok())
+        .unwrap_or_else(|| panic!("no mimnav group: {group}"));
+    let dev = std::fs::metadata(t.0.join("dev/cpu_dma_latency")).expect("device stand-in");
+    assert_eq!(dev.uid(), 0, "the device stays root's");
+    assert_eq!(
+        dev.gid(),
+        gid,
+        "the mimnav group may write the PM QoS device"
+    );
+    assert_eq!(dev.mode() & 0o777, 0o660);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -672,6 +690,8 @@ fn gone(pid: i32) -> bool {
 
 #[test]
 fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
+    // the services asked to run under SCHED_FIFO (the driver replays a capture, paced)
+    const REALTIME: [&str; 2] = ["mapper", "planner"];
     let (systemd, v2) = match cannot_run() {
         Ok(x) => x,
         Err(why) => {
@@ -731,6 +751,9 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
                 capture.display()
             ));
         }
+        if REALTIME.contains(&s) {
+            exec.push_str(" --set=latency.realtime_priority=5");
+        }
         let log = t.0.join(format!("logs/{s}.log"));
         let unit = user_unit(&system, s, &exec, &run_dir, &log, drop_protect_home);
         std::fs::write(units.join(format!("mimnav-{s}.service")), unit).expect("unit");
@@ -746,6 +769,22 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         "[Unit]\nDescription=mimnav test: nothing\nDefaultDependencies=no\n",
     )
     .expect("idle target");
+    // can a process without capabilities have SCHED_FIFO through LimitRTPRIO= here, as the
+    // services do? (not where the manager may not raise RLIMIT_RTPRIO: no CAP_SYS_RESOURCE, as in
+    // some containers; nor where RT group scheduling gives its cgroups no real-time runtime)
+    let chrt = which("chrt");
+    if let Some(chrt) = &chrt {
+        std::fs::write(
+            units.join("mimnav-test-rt.service"),
+            format!(
+                "[Unit]\nDescription=mimnav test: can a unit without capabilities run SCHED_FIFO\n\
+                 [Service]\nType=oneshot\nPrivateUsers=yes\nLimitRTPRIO=99\n\
+                 ExecStart={} -f 5 /bin/true\n",
+                chrt.display()
+            ),
+        )
+        .expect("probe unit");
+    }
 
     let mut manager = match Manager::start(&t.0, &systemd, &v2) {
         Ok(m) => m,
@@ -798,6 +837,34 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         )
         .unwrap();
         assert!(ready >= exec, "{u}");
+    }
+    // real-time scheduling where the config asks for it: the unit lets an unprivileged process
+    // have it (RestrictRealtime=no, LimitRTPRIO=, sched_setscheduler allowed)
+    let rt_possible = chrt.is_some()
+        && manager
+            .systemctl(&["start", "mimnav-test-rt.service"])
+            .status
+            .success();
+    for s in SERVICES {
+        if !rt_possible {
+            println!(
+                "SKIP real-time scheduling under the units: `chrt -f 5` fails in a unit with \
+                 PrivateUsers=yes and LimitRTPRIO=99 too (no CAP_SYS_RESOURCE to raise the \
+                 limit, or RT group scheduling)"
+            );
+            break;
+        }
+        let u = format!("mimnav-{s}.service");
+        let pid = manager.main_pid(&u);
+        // SAFETY: sched_getscheduler has no preconditions; a wrong pid gives -1
+        let policy = unsafe { libc::sched_getscheduler(pid) };
+        let fifo = policy & !libc::SCHED_RESET_ON_FORK == libc::SCHED_FIFO;
+        assert_eq!(
+            fifo,
+            REALTIME.contains(&s),
+            "{u}: policy {policy}\n{}",
+            logs()
+        );
     }
     // data through every topic
     let flowing = taps.until(Duration::from_secs(10), |t| {

@@ -77,6 +77,8 @@ pub struct Config {
     pub planner: PlannerConfig,
     /// The foliage classifier.
     pub foliage: FoliageConfig,
+    /// The services' latency settings.
+    pub latency: LatencyConfig,
 }
 
 /// The keys of the config file as written.
@@ -92,6 +94,40 @@ struct FileConfig {
     mapper: MapperConfig,
     planner: PlannerConfig,
     foliage: FoliageConfig,
+    latency: LatencyConfig,
+}
+
+/// The services' latency settings (`[latency]`); both default to 0.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LatencyConfig {
+    /// The longest CPU wake-up the driver, mapper, foliage classifier and planner allow while
+    /// they run, µs: a Linux PM QoS request through `/dev/cpu_dma_latency`, which keeps the CPUs
+    /// out of idle states slower to leave (0: the CPUs poll when idle). −1 leaves the CPUs'
+    /// power management alone.
+    pub cpu_wakeup_us: i32,
+    /// The SCHED_FIFO priority the driver, mapper, foliage classifier and planner run at (1–99;
+    /// 0: the normal scheduler). Off by default: a real-time process that never sleeps starves
+    /// the rest of its CPU, and a capture replayed at full speed never sleeps.
+    pub realtime_priority: i32,
+}
+
+
+impl LatencyConfig {
+    fn validate(&self, r: &mut Ranges) {
+        r.check(
+            "latency.cpu_wakeup_us",
+            f64::from(self.cpu_wakeup_us),
+            -1.0,
+            1_000_000.0,
+        );
+        r.check(
+            "latency.realtime_priority",
+            f64::from(self.realtime_priority),
+            0.0,
+            99.0,
+        );
+    }
 }
 
 /// The foliage classifier (`[foliage]`): the parameters of
@@ -933,6 +969,7 @@ impl Default for Config {
             mapper: MapperConfig::default(),
             planner: PlannerConfig::default(),
             foliage: FoliageConfig::default(),
+            latency: LatencyConfig::default(),
         }
     }
 }
@@ -1116,6 +1153,7 @@ impl Config {
             mapper: file.mapper,
             planner: file.planner,
             foliage: file.foliage,
+            latency: file.latency,
         };
         let mut r = Ranges(Vec::new());
         config.robot.validate(&mut r);
@@ -1125,6 +1163,7 @@ impl Config {
         config.mapper.validate(&mut r);
         config.planner.validate(&mut r);
         config.foliage.validate(&mut r);
+        config.latency.validate(&mut r);
         // a map comes once per revolution: a shorter limit would call every map stale
         let revolution_s = 60.0 / config.velodyne.rpm;
         r.require(
@@ -1351,6 +1390,7 @@ mod shipped {
         assert_eq!(c.mapper, d.mapper);
         assert_eq!(c.planner, d.planner);
         assert_eq!(c.foliage, d.foliage);
+        assert_eq!(c.latency, d.latency);
         for profile in ["spot", "turtlebot2"] {
             let c =
                 Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");

@@ -1,6 +1,7 @@
 //! What every mimnav process shares: the topic contract ([`topics`]), the IPC layer that opens
 //! them with the project's settings ([`ipc`]), the config loader ([`config`]), logging
-//! ([`logging`]) and rate-limited fault counting ([`faults`]).
+//! ([`logging`]), rate-limited fault counting ([`faults`]) and the latency settings: CPU wake-up
+//! latency and real-time scheduling ([`realtime`]).
 #![deny(missing_docs)]
 
 pub mod cli;
@@ -9,5 +10,6 @@ pub mod faults;
 pub mod grid;
 pub mod ipc;
 pub mod logging;
+pub mod realtime;
 pub mod systemd;
 pub mod topics;

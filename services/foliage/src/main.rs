@@ -37,6 +37,8 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     mimnav_shared::logging::init(&config.log.level);
+    // held until the service ends
+    let _realtime = mimnav_shared::realtime::apply(&config);
     mimnav_shared::cli::finish("mimnav-foliage", run(&config).map(|()| ExitCode::SUCCESS))
 }
 

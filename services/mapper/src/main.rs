@@ -34,6 +34,8 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     mimnav_shared::logging::init(&config.log.level);
+    // held until the service ends
+    let _realtime = mimnav_shared::realtime::apply(&config);
     mimnav_shared::cli::finish("mimnav-mapper", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
@@ -173,6 +175,7 @@ fn run(config: &Config) -> Result<()> {
             if let Err(e) = plan_pub.publish_from_iter(header, classes.len(), plan) {
                 faults.record("publish_failed", Instant::now(), e);
             }
+            let plan_sent_us = ipc::monotonic_ns().saturating_sub(h.rx_mono_ns) / 1000;
             let len = n_layers * grid.len();
             if let Err(e) = layers_pub.publish_from_iter(header, len, mapper.layers()) {
                 faults.record("publish_failed", Instant::now(), e);
@@ -182,6 +185,7 @@ fn run(config: &Config) -> Result<()> {
                 source_seq = h.seq,
                 waited_us,
                 processing_us,
+                plan_sent_us,
                 glass_detected = stats.glass_detected,
                 glass_memory = stats.glass_memory,
                 surface_found = stats.surface_found,

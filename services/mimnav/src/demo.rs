@@ -41,6 +41,15 @@ pub struct DemoArgs {
     /// Where to write the map with the driven path.
     #[arg(long, value_name = "PNG", default_value = "mimnav-demo.png")]
     out: PathBuf,
+    /// The services' log filter (`log.level`); their messages come to this terminal's stderr.
+    /// `debug` shows each revolution's timing per hop.
+    #[arg(long, value_name = "FILTER", default_value = "warn")]
+    log: String,
+    /// The SCHED_FIFO priority of the driver, mapper, foliage classifier and planner
+    /// (`latency.realtime_priority`; 0: the normal scheduler). Without the right to use it
+    /// (root, CAP_SYS_NICE or RLIMIT_RTPRIO), each service warns and runs normally.
+    #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(i32).range(0..=99))]
+    realtime_priority: i32,
 }
 
 /// Percentile `q` (0–1) of sorted values.
@@ -89,7 +98,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         format!("velodyne.data_port={data_port}"),
         format!("velodyne.position_port={position_port}"),
         format!("sim.udp_target={}", toml_quote("127.0.0.1")),
-        format!("log.level={}", toml_quote("warn")),
+        format!("log.level={}", toml_quote(&args.log)),
+        format!("latency.realtime_priority={}", args.realtime_priority),
     ] {
         child_args.extend(["--set".into(), s]);
     }

@@ -41,6 +41,8 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     mimnav_shared::logging::init(&config.log.level);
+    // held until the service ends
+    let _realtime = mimnav_shared::realtime::apply(&config);
     mimnav_shared::cli::finish("mimnav-planner", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
@@ -57,6 +59,10 @@ struct Commander {
     /// (status, flags, stale) the status line was last written for.
     shown: (u8, u8, &'static str),
     sd: Notifier,
+    /// The last packet's receive time of the revolution the map being planned on came from
+    /// (0: none yet), and when that map arrived here, monotonic ns: the debug log's figures.
+    map_rx_mono_ns: u64,
+    map_received_mono_ns: u64,
 }
 
 impl Commander {
@@ -73,6 +79,19 @@ impl Commander {
     ) {
         // stamped when it leaves, so the stack's latency includes the planning
         let now = ipc::monotonic_ns().max(now);
+        if self.map_rx_mono_ns > 0 {
+            tracing::debug!(
+                source_seq,
+                status,
+                // from the revolution's last packet to this map's arrival here, and the planning
+                waited_us = self
+                    .map_received_mono_ns
+                    .saturating_sub(self.map_rx_mono_ns)
+                    / 1000,
+                processing_us = now.saturating_sub(self.map_received_mono_ns) / 1000,
+                "command"
+            );
+        }
         let cmd = VelocityCommand {
             seq: self.seq,
             stamp_mono_ns: now,
@@ -163,6 +182,8 @@ fn run(config: &Config) -> Result<()> {
         stale: "",
         shown: (u8::MAX, 0, ""),
         sd,
+        map_rx_mono_ns: 0,
+        map_received_mono_ns: 0,
     };
     commander.sd.ready("waiting for map/plan");
     let result = ipc::run_waitset(&waitset, |id| {
@@ -204,6 +225,8 @@ fn run(config: &Config) -> Result<()> {
         while let Ok(Some(sample)) = plan_sub.receive() {
             let h = *sample.user_header();
             last_map_mono = now;
+            commander.map_received_mono_ns = ipc::monotonic_ns();
+            commander.map_rx_mono_ns = h.rx_mono_ns;
             classes.clear();
             classes.extend(sample.payload().iter().map(|c| c.class));
             drop(sample);

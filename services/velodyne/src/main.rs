@@ -57,6 +57,8 @@ fn main() -> ExitCode {
         return ExitCode::SUCCESS;
     }
     mimnav_shared::logging::init(&config.log.level);
+    // held until the service ends
+    let _realtime = mimnav_shared::realtime::apply(&config);
     if !config.from_file() {
         tracing::info!("no config file: running on the built-in defaults");
     }

@@ -1,0 +1,255 @@
+//! The latency settings of the services on a revolution's path (`[latency]`): a CPU wake-up
+//! latency request and real-time scheduling.
+//!
+//! A revolution crosses three processes (driver → mapper → planner), and each hop wakes a
+//! process that sleeps on its WaitSet.
+//!
+//! * **CPU wake-up latency.** On an idle CPU the wake-up waits for the CPU to leave its idle
+//!   state: tens of µs on a laptop in a deep C-state, 100–250 µs per hop on this project's
+//!   2-core virtual machine, whose halted virtual CPUs the host deschedules. While a process
+//!   holds `/dev/cpu_dma_latency` open with a value written to it (a Linux PM QoS request), the
+//!   kernel keeps every CPU out of the idle states slower to leave than that value (0: the CPUs
+//!   poll when idle); closing it ends the request, and the kernel applies the smallest request
+//!   held. `cyclictest` and tuned's `latency-performance` profile do the same. The price is
+//!   power: CPUs that poll instead of sleeping draw more (`latency.cpu_wakeup_us = -1` leaves
+//!   them alone). Under the systemd units, `tmpfiles.d/mimnav.conf` gives the `mimnav` group
+//!   write access to the device and the units bind it into their private `/dev`.
+//! * **Real-time scheduling.** Under the normal scheduler a woken service may wait behind, or be
+//!   preempted by, whatever else runs (the simulator, a compiler). A positive
+//!   `latency.realtime_priority` puts the service under `SCHED_FIFO` at that priority. Off by default: a real-time
+//!   process that never sleeps starves the rest of its CPU, and a capture replayed at full
+//!   speed never sleeps. `mimnav demo` turns it on (`--realtime-priority`); the systemd units
+//!   allow it (`LimitRTPRIO=`).
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// The kernel's PM QoS device for the CPU wake-up latency.
+pub const DEVICE: &str = "/dev/cpu_dma_latency";
+
+/// A CPU wake-up latency request, in force while this value lives.
+#[derive(Debug)]
+pub struct CpuLatencyRequest {
+    _file: File,
+    us: i32,
+}
+
+impl CpuLatencyRequest {
+    /// The requested limit, µs.
+    pub fn us(&self) -> i32 {
+        self.us
+    }
+}
+
+/// Requests a CPU wake-up latency of at most `us` µs through `device` (normally [`DEVICE`]);
+/// `us < 0` requests nothing. The error names the device and what failed.
+pub fn request_at(device: &Path, us: i32) -> Result<Option<CpuLatencyRequest>, String> {
+    if us < 0 {
+        return Ok(None);
+    }
+    let mut file = OpenOptions::new()
+        .write(true)
+        .open(device)
+        .map_err(|e| format!("cannot open {}: {e}", device.display()))?;
+    // the device takes a native-endian s32 (or an ASCII hex string)
+    file.write_all(&us.to_ne_bytes())
+        .map_err(|e| format!("cannot write {us} µs to {}: {e}", device.display()))?;
+    Ok(Some(CpuLatencyRequest { _file: file, us }))
+}
+
+/// The CPU wake-up latency the kernel applies now, µs (the smallest request held), read from
+/// `device`.
+pub fn current_at(device: &Path) -> Result<i32, String> {
+    let mut buf = [0u8; 4];
+    File::open(device)
+        .and_then(|mut f| f.read_exact(&mut buf))
+        .map_err(|e| format!("cannot read {}: {e}", device.display()))?;
+    Ok(i32::from_ne_bytes(buf))
+}
+
+/// Puts the calling thread (and the threads it starts later) under `SCHED_FIFO` at `priority`;
+/// `priority` ≤ 0 leaves the scheduling alone. Returns whether the thread now runs under a
+/// real-time policy: one already real-time (set by systemd's `CPUSchedulingPolicy=`) is left as
+/// it is.
+pub fn set_fifo(priority: i32) -> Result<bool, String> {
+    if priority <= 0 {
+        return Ok(false);
+    }
+    // SAFETY: sched_getscheduler on the calling thread (0) has no preconditions
+    let current = unsafe { libc::sched_getscheduler(0) } & !libc::SCHED_RESET_ON_FORK;
+    if current == libc::SCHED_FIFO || current == libc::SCHED_RR {
+        return Ok(true);
+    }
+    let param = libc::sched_param {
+        sched_priority: priority,
+    };
+    // SAFETY: `param` is a valid sched_param that outlives the call; 0 is the calling thread.
+    // Children (none are started) would not inherit the policy (SCHED_RESET_ON_FORK).
+    let rc = unsafe {
+        libc::sched_setscheduler(0, libc::SCHED_FIFO | libc::SCHED_RESET_ON_FORK, &param)
+    };
+    if rc != 0 {
+        return Err(format!(
+            "cannot switch to SCHED_FIFO at priority {priority}: {}",
+            std::io::Error::last_os_error()
+        ));
+    }
+    Ok(true)
+}
+
+/// What [`apply`] put in force; the CPU wake-up latency request holds while this lives.
+#[derive(Debug)]
+pub struct Realtime {
+    /// The CPU wake-up latency request, if one holds.
+    pub cpu_latency: Option<CpuLatencyRequest>,
+    /// Whether the service runs under a real-time scheduling policy.
+    pub fifo: bool,
+}
+
+/// Applies `[latency]` for a service's lifetime: logged once each, as info when in force and as
+/// a warning (naming what failed and the way out) when not; the service runs either way.
+pub fn apply(config: &crate::config::Config) -> Realtime {
+    let priority = config.latency.realtime_priority;
+    let fifo = match set_fifo(priority) {
+        Ok(true) => {
+            tracing::info!(priority, "real-time scheduling (SCHED_FIFO) in force");
+            true
+        }
+        Ok(false) => false,
+        Err(e) => {
+            tracing::warn!(
+                "latency.realtime_priority = {priority}: {e}; running under the normal \
+                 scheduler (give the process CAP_SYS_NICE or an RLIMIT_RTPRIO of at least \
+                 {priority}, as the systemd units' LimitRTPRIO= does, or set \
+                 latency.realtime_priority = 0)"
+            );
+            false
+        }
+    };
+    Realtime {
+        cpu_latency: hold_cpu_latency(config.latency.cpu_wakeup_us),
+        fifo,
+    }
+}
+
+fn hold_cpu_latency(us: i32) -> Option<CpuLatencyRequest> {
+    match request_at(Path::new(DEVICE), us) {
+        Ok(Some(r)) => {
+            tracing::info!(
+                cpu_wakeup_us = us,
+                "CPU wake-up latency held at {us} µs while running ({DEVICE})"
+            );
+            Some(r)
+        }
+        Ok(None) => None,
+        Err(e) => {
+            tracing::warn!(
+                "latency.cpu_wakeup_us = {us}: {e}; the CPUs' idle states stay as they are, so \
+                 each hop of a revolution may wait longer for its CPU to wake (give the service \
+                 write access to {DEVICE}, as tmpfiles.d/mimnav.conf does for the mimnav group, \
+                 or set latency.cpu_wakeup_us = -1)"
+            );
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("mimnav-cpu-latency-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        dir
+    }
+
+    #[test]
+    fn negative_requests_nothing_and_touches_nothing() {
+        let dir = scratch("negative");
+        let device = dir.join("missing");
+        let r = request_at(&device, -1).expect("no request, no error");
+        assert!(r.is_none());
+        assert!(!device.exists(), "nothing may be created");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn writes_the_value_as_a_native_s32() {
+        let dir = scratch("writes");
+        let device = dir.join("device");
+        std::fs::write(&device, b"").expect("stand-in device");
+        let r = request_at(&device, 25).expect("opens").expect("a request");
+        assert_eq!(r.us(), 25);
+        assert_eq!(std::fs::read(&device).expect("read"), 25i32.to_ne_bytes());
+        assert_eq!(current_at(&device), Ok(25));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_missing_device_is_an_error_naming_it() {
+        let dir = scratch("missing");
+        let device = dir.join("no-such-device");
+        let e = request_at(&device, 0).expect_err("no device");
+        assert!(e.starts_with("cannot open "), "{e}");
+        assert!(e.contains("no-such-device"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn priority_zero_leaves_the_scheduling_alone() {
+        // SAFETY: no preconditions
+        let before = unsafe { libc::sched_getscheduler(0) };
+        assert_eq!(set_fifo(0), Ok(false));
+        assert_eq!(unsafe { libc::sched_getscheduler(0) }, before);
+    }
+
+    /// On a thread of its own (the policy is per thread), where this process may: the thread
+    /// runs under SCHED_FIFO at the priority asked for.
+    #[test]
+    fn fifo_is_in_force_where_allowed() {
+        std::thread::spawn(|| match set_fifo(3) {
+            Ok(on) => {
+                assert!(on);
+                // SAFETY: no preconditions; `p` is written by the call
+                let policy = unsafe { libc::sched_getscheduler(0) } & !libc::SCHED_RESET_ON_FORK;
+                assert_eq!(policy, libc::SCHED_FIFO);
+                let mut p = libc::sched_param { sched_priority: 0 };
+                assert_eq!(unsafe { libc::sched_getparam(0, &mut p) }, 0);
+                assert_eq!(p.sched_priority, 3);
+                // a second call leaves a real-time thread as it is
+                assert_eq!(set_fifo(5), Ok(true));
+                assert_eq!(unsafe { libc::sched_getparam(0, &mut p) }, 0);
+                assert_eq!(p.sched_priority, 3);
+            }
+            Err(e) => {
+                assert!(e.contains("SCHED_FIFO at priority 3"), "{e}");
+                println!("SKIP fifo_is_in_force_where_allowed: {e}");
+            }
+        })
+        .join()
+        .expect("the thread's checks");
+    }
+
+    /// The real device, where this process may write it: while the request is held, the kernel's
+    /// limit is at most the value requested (other holders may ask for less, never more).
+    #[test]
+    fn the_kernel_applies_the_request_while_held() {
+        let device = Path::new(DEVICE);
+        let r = match request_at(device, 7) {
+            Ok(r) => r.expect("a request"),
+            Err(e) => {
+                println!("SKIP the_kernel_applies_the_request_while_held: {e}");
+                return;
+            }
+        };
+        let now = current_at(device).expect("readable");
+        assert!(
+            now <= 7,
+            "the kernel's limit is {now} µs with 7 µs requested"
+        );
+        drop(r);
+    }
+}
