@@ -112,7 +112,6 @@ pub struct LatencyConfig {
     pub realtime_priority: i32,
 }
 
-
 impl LatencyConfig {
     fn validate(&self, r: &mut Ranges) {
         r.check(
