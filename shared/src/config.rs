@@ -159,6 +159,9 @@ pub struct FoliageConfig {
     pub thin_window: usize,
     /// O_s: obstacle returns among them that keep it.
     pub thin_min: usize,
+    /// Beyond the paper: a window that held a confirmed obstacle in the previous scan seeds a
+    /// candidate when its maximum is within RELAX-OBST's tolerance of that range.
+    pub hold_obstacles: bool,
 }
 
 impl Default for FoliageConfig {
@@ -176,6 +179,7 @@ impl Default for FoliageConfig {
             sector_deg: 10.0,
             thin_window: 9,
             thin_min: 3,
+            hold_obstacles: true,
         }
     }
 }

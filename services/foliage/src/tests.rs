@@ -1523,3 +1523,62 @@ fn the_config_defaults_are_the_library_defaults() {
         (d.thin_window, d.thin_min)
     );
 }
+
+/// The wall of [`wall_scan`] with a blade 1 m away in every fourth window: each blade window
+/// blocks the smooth-window test of the windows within 2 of it, so no window of the wall passes
+/// `GET-OBST-CANDIDATES` on its own.
+fn broken_wall_scan(rng: &mut Rng) -> (Vec<f32>, Vec<f32>) {
+    let (a, mut r) = wall_scan(rng);
+    for (&angle, range) in a.iter().zip(r.iter_mut()) {
+        if *range > 0.0 && window_of(angle) % 4 == 0 {
+            *range = 1.0;
+        }
+    }
+    (a, r)
+}
+
+/// Beyond the paper (interpretation 15): a confirmed obstacle stays confirmed when blades break
+/// every run of smooth windows in front of it, and only the returns on it are obstacles; with
+/// `hold_obstacles` off, the paper's test alone loses it.
+#[test]
+fn confirmed_obstacle_is_held_through_broken_windows() {
+    for hold in [true, false] {
+        let mut rng = Rng::new(5);
+        let mut c = Classifier::new(FoliageParams {
+            hold_obstacles: hold,
+            ..Default::default()
+        })
+        .unwrap_or_else(|e| panic!("params rejected: {e}"));
+        for _ in 0..3 {
+            let (a, r) = wall_scan(&mut rng);
+            c.classify(&a, &r);
+        }
+        let (a, r) = wall_scan(&mut rng);
+        assert!(c.classify(&a, &r).alarm, "the wall is confirmed");
+        let (a, r) = broken_wall_scan(&mut rng);
+        let v = c.classify(&a, &r);
+        assert_eq!(v.alarm, hold, "hold_obstacles = {hold}");
+        let on_wall = v
+            .classes
+            .iter()
+            .zip(&r)
+            .filter(|&(&k, _)| k == class::OBSTACLE)
+            .inspect(|&(_, &range)| assert!(range > 1.9, "a blade at {range} m is no obstacle"))
+            .count();
+        if hold {
+            assert!(on_wall > 50, "{on_wall} obstacle returns on the wall");
+        }
+    }
+}
+
+/// Only confirmed obstacles are held: broken scans of a wall never confirmed raise no alarm.
+#[test]
+fn nothing_is_held_before_it_is_confirmed() {
+    let mut rng = Rng::new(6);
+    let mut c = classifier();
+    for k in 0..10 {
+        let (a, r) = broken_wall_scan(&mut rng);
+        let v = c.classify(&a, &r);
+        assert!(!v.alarm, "scan {k}: {} obstacle returns", v.obstacle_count);
+    }
+}
