@@ -1530,7 +1530,7 @@ fn the_config_defaults_are_the_library_defaults() {
 fn broken_wall_scan(rng: &mut Rng) -> (Vec<f32>, Vec<f32>) {
     let (a, mut r) = wall_scan(rng);
     for (&angle, range) in a.iter().zip(r.iter_mut()) {
-        if *range > 0.0 && window_of(angle) % 4 == 0 {
+        if *range > 0.0 && window_of(angle).is_multiple_of(4) {
             *range = 1.0;
         }
     }
