@@ -21,8 +21,10 @@ impl GridSpec {
     #[inline]
     pub fn cell_of(&self, x: f32, y: f32) -> Option<(usize, usize)> {
         let h = self.half_extent_m();
-        let r = (x + h) / self.cell_m;
-        let c = (y + h) / self.cell_m;
+        // one reciprocal, which the compiler hoists out of a caller's loop: no division per point
+        let inv = 1.0 / self.cell_m;
+        let r = (x + h) * inv;
+        let c = (y + h) * inv;
         let n = self.cells as f32;
         // truncation is the floor for the non-negative values that pass the test (and NaN fails)
         (r >= 0.0 && c >= 0.0 && r < n && c < n).then_some((r as usize, c as usize))
