@@ -16,9 +16,9 @@
 //!   write access to the device and the units bind it into their private `/dev`.
 //! * **Real-time scheduling.** Under the normal scheduler a woken service may wait behind, or be
 //!   preempted by, whatever else runs (the simulator, a compiler). A positive
-//!   `latency.realtime_priority` puts the service under `SCHED_FIFO` at that priority. Off by default: a real-time
-//!   process that never sleeps starves the rest of its CPU, and a capture replayed at full
-//!   speed never sleeps. `mimnav demo` turns it on (`--realtime-priority`); the systemd units
+//!   `latency.realtime_priority` puts the service under `SCHED_FIFO` at that priority. Off by
+//!   default: a real-time process that never sleeps starves the rest of its CPU, and a capture
+//!   replayed at full speed never sleeps. `mimnav demo` turns it on (`--realtime-priority`); the systemd units
 //!   allow it (`LimitRTPRIO=`).
 
 use std::fs::{File, OpenOptions};
@@ -98,25 +98,14 @@ pub fn set_fifo(priority: i32) -> Result<bool, String> {
     Ok(true)
 }
 
-/// What [`apply`] put in force; the CPU wake-up latency request holds while this lives.
-#[derive(Debug)]
-pub struct Realtime {
-    /// The CPU wake-up latency request, if one holds.
-    pub cpu_latency: Option<CpuLatencyRequest>,
-    /// Whether the service runs under a real-time scheduling policy.
-    pub fifo: bool,
-}
-
 /// Applies `[latency]` for a service's lifetime: logged once each, as info when in force and as
-/// a warning (naming what failed and the way out) when not; the service runs either way.
-pub fn apply(config: &crate::config::Config) -> Realtime {
+/// a warning (naming what failed and the way out) when not; the service runs either way. The
+/// CPU wake-up latency request returned holds while it lives.
+pub fn apply(config: &crate::config::Config) -> Option<CpuLatencyRequest> {
     let priority = config.latency.realtime_priority;
-    let fifo = match set_fifo(priority) {
-        Ok(true) => {
-            tracing::info!(priority, "real-time scheduling (SCHED_FIFO) in force");
-            true
-        }
-        Ok(false) => false,
+    match set_fifo(priority) {
+        Ok(true) => tracing::info!(priority, "real-time scheduling (SCHED_FIFO) in force"),
+        Ok(false) => {}
         Err(e) => {
             tracing::warn!(
                 "latency.realtime_priority = {priority}: {e}; running under the normal \
@@ -124,13 +113,9 @@ pub fn apply(config: &crate::config::Config) -> Realtime {
                  {priority}, as the systemd units' LimitRTPRIO= does, or set \
                  latency.realtime_priority = 0)"
             );
-            false
         }
-    };
-    Realtime {
-        cpu_latency: hold_cpu_latency(config.latency.cpu_wakeup_us),
-        fifo,
     }
+    hold_cpu_latency(config.latency.cpu_wakeup_us)
 }
 
 fn hold_cpu_latency(us: i32) -> Option<CpuLatencyRequest> {

@@ -1031,7 +1031,8 @@ fn ceil_non_negative(x: f32) -> f32 {
 ///   the pruned `rf`).
 /// * returns `alarm` = any obstacle left in `rf` (line 10, interpretation 9).
 /// * archives the evidence: `C_{k-2} ← C_{k-1}`, then `C_{k-1} ← evidence_step(C_k, C_{k-1})`
-///   (lines 11–18).
+///   (lines 11–18);
+///   and the farthest `R_f` range per window into `history.obst_prev` (interpretation 15).
 pub fn update_and_archive(
     params: &FoliageParams,
     scan: Scan<'_>,
@@ -1064,6 +1065,9 @@ pub fn update_and_archive(
         }
     };
     let (mut cur_s, mut cur_min) = (NO_BIN, u32::MAX);
+    // what `hold_obstacles` holds next scan: the farthest R_f per window (max with 0 for
+    // non-obstacles, so no branch)
+    history.obst_prev[..n_w].fill(0.0);
     let per_return = rc[..ne]
         .iter()
         .zip(&scan.windows[..ne])
@@ -1084,6 +1088,9 @@ pub fn update_and_archive(
             (cur_s, cur_min) = (sector, u32::MAX);
         }
         let f = rf.get(r).copied().unwrap_or(0.0);
+        if let Some(o) = history.obst_prev.get_mut(w as usize) {
+            *o = o.max(f);
+        }
         let obstacle = f > 0.0;
         alarm |= obstacle;
         cur_min = cur_min.min(f.to_bits().wrapping_sub(1));
@@ -1095,19 +1102,8 @@ pub fn update_and_archive(
         *s = s.min(key_to_range(cur_min));
     }
     let History {
-        c_prev1,
-        c_prev2,
-        obst_prev,
-        ..
+        c_prev1, c_prev2, ..
     } = history;
-    obst_prev[..n_w].fill(0.0);
-    for ((&f, &w), _) in rf.iter().zip(&scan.windows[..ne]).zip(0..ne) {
-        if f > 0.0
-            && let Some(o) = obst_prev.get_mut(w as usize)
-        {
-            *o = o.max(f);
-        }
-    }
     c_prev2[..n_w].copy_from_slice(&c_prev1[..n_w]);
     for (c1, &ck) in c_prev1[..n_w].iter_mut().zip(c_k.iter()) {
         *c1 = evidence_step(ck, *c1);

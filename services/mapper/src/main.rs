@@ -35,7 +35,7 @@ fn main() -> ExitCode {
     };
     mimnav_shared::logging::init(&config.log.level);
     // held until the service ends
-    let _realtime = mimnav_shared::realtime::apply(&config);
+    let _cpu_latency = mimnav_shared::realtime::apply(&config);
     mimnav_shared::cli::finish("mimnav-mapper", run(&config).map(|()| ExitCode::SUCCESS))
 }
 

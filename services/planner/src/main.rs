@@ -42,7 +42,7 @@ fn main() -> ExitCode {
     };
     mimnav_shared::logging::init(&config.log.level);
     // held until the service ends
-    let _realtime = mimnav_shared::realtime::apply(&config);
+    let _cpu_latency = mimnav_shared::realtime::apply(&config);
     mimnav_shared::cli::finish("mimnav-planner", run(&config).map(|()| ExitCode::SUCCESS))
 }
 
@@ -60,7 +60,8 @@ struct Commander {
     shown: (u8, u8, &'static str),
     sd: Notifier,
     /// The last packet's receive time of the revolution the map being planned on came from
-    /// (0: none yet), and when that map arrived here, monotonic ns: the debug log's figures.
+    /// (0: none, or already logged), and when that map arrived here, monotonic ns: the debug
+    /// log's figures.
     map_rx_mono_ns: u64,
     map_received_mono_ns: u64,
 }
@@ -91,6 +92,8 @@ impl Commander {
                 processing_us = now.saturating_sub(self.map_received_mono_ns) / 1000,
                 "command"
             );
+            // once per map: a later stale-input stop is not timed against it
+            self.map_rx_mono_ns = 0;
         }
         let cmd = VelocityCommand {
             seq: self.seq,

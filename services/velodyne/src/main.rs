@@ -58,7 +58,7 @@ fn main() -> ExitCode {
     }
     mimnav_shared::logging::init(&config.log.level);
     // held until the service ends
-    let _realtime = mimnav_shared::realtime::apply(&config);
+    let _cpu_latency = mimnav_shared::realtime::apply(&config);
     if !config.from_file() {
         tracing::info!("no config file: running on the built-in defaults");
     }
