@@ -162,6 +162,9 @@ pub struct FoliageConfig {
     /// Beyond the paper: a window that held a confirmed obstacle in the previous scan seeds a
     /// candidate when its maximum is within RELAX-OBST's tolerance of that range.
     pub hold_obstacles: bool,
+    /// Beyond the paper: a window whose maximum is nearer than both neighbours' takes the nearer
+    /// neighbour's maximum before FIND-LOW-FREQ's differences (blades in front of a surface).
+    pub fill_notches: bool,
 }
 
 impl Default for FoliageConfig {
@@ -180,6 +183,7 @@ impl Default for FoliageConfig {
             thin_window: 9,
             thin_min: 3,
             hold_obstacles: true,
+            fill_notches: true,
         }
     }
 }

@@ -103,6 +103,14 @@
 //!     blades broke the seven smooth windows the paper's test needs; with this, in the simulated
 //!     evaluation, 99.6 % of those scans alarm instead of 92–93 %, and grass alone still never
 //!     alarms (nothing is held before an alarm).
+//! 16. **Filled notches** (beyond the paper; `fill_notches`, on by default): after the max filter, a
+//!     window whose maximum is nearer than both neighbours' takes the nearer neighbour's maximum
+//!     when the two windows on each side agree (`i-2` with `i-1`, `i-1` with `i+1`, `i+1` with
+//!     `i+2`, each within `RELAX-OBST`'s tolerance without evidence). Blades in front of a surface
+//!     can only shorten a window; a window whose every beam met a blade broke the 7 smooth
+//!     windows of an obstacle coming into range behind grass, whose first alarm came 7.7 scans
+//!     late on average while driving. A filled window never yields a candidate itself. See
+//!     [`fill_notches`].
 //!
 //! ## Allocation and cost
 //!
@@ -219,6 +227,13 @@ pub struct FoliageParams {
     /// confirmed obstacles are held, so in grass that never raised an alarm nothing changes.
     /// Default **true**.
     pub hold_obstacles: bool,
+    /// **Beyond the paper** (interpretation 16, [`fill_notches`]): a window whose maximum is
+    /// nearer than both neighbouring windows', which agree with each other within `RELAX-OBST`'s
+    /// tolerance, takes the nearer neighbour's maximum before the differences. Behind grass, a window whose every beam met a blade is such a notch, and one
+    /// of them among the 7 windows `GET-OBST-CANDIDATES` needs blocks the obstacle; while driving
+    /// towards a trunk hidden in grass this held its first alarm back by 7.7 scans on average.
+    /// Default **true**.
+    pub fill_notches: bool,
 }
 
 impl Default for FoliageParams {
@@ -237,6 +252,7 @@ impl Default for FoliageParams {
             thin_window: 9,
             thin_min: 3,
             hold_obstacles: true,
+            fill_notches: true,
         }
     }
 }
@@ -270,6 +286,7 @@ impl FoliageParams {
             thin_window: c.thin_window,
             thin_min: c.thin_min,
             hold_obstacles: c.hold_obstacles,
+            fill_notches: c.fill_notches,
         }
     }
 }
@@ -608,6 +625,12 @@ pub fn find_low_freq(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
     {
         *v = cur_max;
     }
+    differences(out);
+}
+
+/// `dv` and `nad2v` from `v` (`FIND-LOW-FREQ` lines 6–12), wrapped (interpretation 4).
+fn differences(out: &mut LowFreq) {
+    let n_windows = out.v.len().min(out.dv.len()).min(out.nad2v.len());
     for i in 0..n_windows {
         out.dv[i] = out.v[wrap(i, 1, n_windows)] - out.v[i];
     }
@@ -619,6 +642,55 @@ pub fn find_low_freq(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
             (out.dv[wrap(i, 1, n_windows)] - out.dv[i]).abs() / v
         };
     }
+}
+
+/// **Beyond the paper** (interpretation 16, [`FoliageParams::fill_notches`]): a window whose
+/// maximum is nearer than both its neighbours', where the two windows on each side agree — `i-2`
+/// with `i-1`, `i-1` with `i+1`, `i+1` with `i+2`, each pair within `RELAX-OBST`'s tolerance
+/// without evidence ([`relax_tolerance`] at the nearer neighbour's range) — takes the nearer
+/// neighbour's maximum: `v(i) ← min(v(i-1), v(i+1))` (values before filling, wrapped); `dv` and
+/// `nad2v` are then recomputed. Foliage in front of a surface can only shorten a window's
+/// maximum, never lengthen it; the paper's max filter removes the blades that share a window with
+/// a return from the surface, and this removes the windows that only blades reached. The
+/// neighbours must agree, as windows on one surface do, because in a dense grass band every
+/// window's maximum lies near the band's far edge, and filling the dips there made the band as
+/// smooth as a wall: in 200 scans of the synthetic ±30 % band of the tests, filling every notch
+/// gave 95 false alarms, comparing `i±1` only 23, comparing all four pairs 1 (0 without
+/// filling; the test allows 1). A filled window holds no return at its new maximum, so it never
+/// yields a candidate itself; it only stops blocking its neighbours. Returns the number of
+/// windows filled.
+pub fn fill_notches(params: &FoliageParams, low: &mut LowFreq) -> usize {
+    let n = low.v.len();
+    if n < 3 {
+        return 0;
+    }
+    // the raw maxima of i-2, i-1 (before any filling), and of the circle's first two windows
+    let (first, second) = (low.v[0], low.v[1]);
+    let (mut prev2, mut prev) = (low.v[n - 2], low.v[n - 1]);
+    let mut filled = 0;
+    for i in 0..n {
+        let cur = low.v[i];
+        let at = |k: usize| match k {
+            k if k == n => first,
+            k if k == n + 1 => second,
+            k => low.v[k],
+        };
+        let (next, next2) = (at(i + 1), at(i + 2));
+        let floor = prev.min(next);
+        if floor > cur {
+            let tol = relax_tolerance(params, floor, 0.0, 0.0);
+            let agree = |a: f32, b: f32| (a - b).abs() < tol;
+            if agree(prev, next) && agree(prev2, prev) && agree(next, next2) {
+                low.v[i] = floor;
+                filled += 1;
+            }
+        }
+        (prev2, prev) = (prev, cur);
+    }
+    if filled > 0 {
+        differences(low);
+    }
+    filled
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1206,6 +1278,9 @@ impl Classifier {
         let ne = scan.len();
 
         find_low_freq(scan, self.n_windows, &mut self.low);
+        if p.fill_notches {
+            fill_notches(&p, &mut self.low);
+        }
         get_obst_candidates(
             &p,
             scan,

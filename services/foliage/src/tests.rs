@@ -1522,6 +1522,10 @@ fn the_config_defaults_are_the_library_defaults() {
         (from.thin_window, from.thin_min),
         (d.thin_window, d.thin_min)
     );
+    assert_eq!(
+        (from.hold_obstacles, from.fill_notches),
+        (d.hold_obstacles, d.fill_notches)
+    );
 }
 
 /// The wall of [`wall_scan`] with a blade 1 m away in every fourth window: each blade window
@@ -1546,6 +1550,7 @@ fn confirmed_obstacle_is_held_through_broken_windows() {
         let mut rng = Rng::new(5);
         let mut c = Classifier::new(FoliageParams {
             hold_obstacles: hold,
+            fill_notches: false,
             ..Default::default()
         })
         .unwrap_or_else(|e| panic!("params rejected: {e}"));
@@ -1571,13 +1576,110 @@ fn confirmed_obstacle_is_held_through_broken_windows() {
     }
 }
 
-/// Only confirmed obstacles are held: broken scans of a wall never confirmed raise no alarm.
+/// Only confirmed obstacles are held: broken scans of a wall never confirmed raise no alarm
+/// (with the notches left as they are, which would otherwise confirm it).
 #[test]
 fn nothing_is_held_before_it_is_confirmed() {
     let mut rng = Rng::new(6);
-    let mut c = classifier();
+    let mut c = Classifier::new(FoliageParams {
+        fill_notches: false,
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("params rejected: {e}"));
     for k in 0..10 {
         let (a, r) = broken_wall_scan(&mut rng);
+        let v = c.classify(&a, &r);
+        assert!(!v.alarm, "scan {k}: {} obstacle returns", v.obstacle_count);
+    }
+}
+
+/// Interpretation 16: a window nearer than both neighbours takes the nearer neighbour's maximum;
+/// peaks, slopes, two-window notches and the circle's seam are handled as stated.
+#[test]
+fn fill_notches_fills_single_window_dips_only() {
+    let p = FoliageParams::default();
+    // the tolerance at 3 m: 0.01 · 3 + 0.03 = 0.06 m
+    let mut low = LowFreq {
+        //       0    1    2    3     4     5    6    7    8    9    10   11   12   13
+        v: vec![
+            1.0, 3.0, 3.0, 1.0, 3.02, 3.04, 1.0, 3.0, 3.2, 3.2, 0.0, 0.0, 3.0, 3.0,
+        ],
+        dv: vec![0.0; 14],
+        nad2v: vec![0.0; 14],
+    };
+    // window 3 is a notch with 3.0, 3.0 before and 3.02, 3.04 after, all agreeing: it takes 3.0;
+    // window 6 is a notch whose windows after (3.0, 3.2) disagree, as at a grass band's far
+    // edge: it stays; windows 10–11 are a two-window dip and stay; window 0 is a notch across
+    // the seam (3.0, 3.0 before, 3.0, 3.0 after): it takes 3.0
+    assert_eq!(fill_notches(&p, &mut low), 2);
+    assert_eq!(
+        low.v,
+        vec![3.0, 3.0, 3.0, 3.0, 3.02, 3.04, 1.0, 3.0, 3.2, 3.2, 0.0, 0.0, 3.0, 3.0]
+    );
+    // the differences are those of the filled maxima
+    let mut expect = low.clone();
+    differences(&mut expect);
+    assert_eq!(low, expect);
+    assert!((low.dv[3] - 0.02).abs() < 1e-6 && low.nad2v[1] == 0.0);
+    // a second pass finds nothing more to fill
+    assert_eq!(fill_notches(&p, &mut low), 0);
+    // too few windows to have neighbours on both sides: left alone
+    let mut tiny = LowFreq {
+        v: vec![1.0, 2.0],
+        dv: vec![0.0; 2],
+        nad2v: vec![0.0; 2],
+    };
+    assert_eq!(fill_notches(&p, &mut tiny), 0);
+}
+
+/// Interpretation 16 in the whole classifier: a wall that only blades reach in every fourth
+/// window is confirmed from scratch on its second scan with `fill_notches`, and never without;
+/// the blades themselves are never obstacles.
+#[test]
+fn notch_filling_confirms_a_wall_behind_single_blade_windows() {
+    for fill in [true, false] {
+        let mut rng = Rng::new(7);
+        let mut c = Classifier::new(FoliageParams {
+            fill_notches: fill,
+            ..Default::default()
+        })
+        .unwrap_or_else(|e| panic!("params rejected: {e}"));
+        let alarms: Vec<bool> = (0..4)
+            .map(|_| {
+                let (a, r) = broken_wall_scan(&mut rng);
+                let v = c.classify(&a, &r);
+                for (&k, &range) in v.classes.iter().zip(&r) {
+                    assert!(
+                        k != class::OBSTACLE || range > 1.9,
+                        "a blade at {range} m is no obstacle"
+                    );
+                }
+                v.alarm
+            })
+            .collect();
+        let expect = if fill {
+            // held back on the first scan (REMOVE-NEW-OBST), confirmed from the second on
+            vec![false, true, true, true]
+        } else {
+            vec![false; 4]
+        };
+        assert_eq!(alarms, expect, "fill_notches = {fill}");
+    }
+}
+
+/// Blades in two neighbouring windows are not a notch: a wall broken that way is not confirmed
+/// from scratch even with `fill_notches` (the paper's test, unchanged).
+#[test]
+fn two_window_dips_are_not_filled() {
+    let mut rng = Rng::new(8);
+    let mut c = classifier();
+    for k in 0..6 {
+        let (a, mut r) = wall_scan(&mut rng);
+        for (&angle, range) in a.iter().zip(r.iter_mut()) {
+            if *range > 0.0 && window_of(angle) % 4 < 2 {
+                *range = 1.0;
+            }
+        }
         let v = c.classify(&a, &r);
         assert!(!v.alarm, "scan {k}: {} obstacle returns", v.obstacle_count);
     }
