@@ -291,7 +291,7 @@ impl Default for PlannerConfig {
             goal_weight: 5.0,
             speed_weight: 0.1,
             obstacle_weight: 1.0,
-            margin_m: 0.05,
+            margin_m: 0.1,
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             use_foliage: true,

@@ -593,6 +593,13 @@ pub struct LowFreq {
 /// `n_windows` sets the length of the outputs; returns whose window is `≥ n_windows` are ignored.
 /// Interpretation (4): differences wrap around the circle (`v(N_w) ≡ v(0)`).
 pub fn find_low_freq(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
+    max_filter(scan, n_windows, out);
+    differences(out);
+}
+
+/// The max filter of `FIND-LOW-FREQ` (lines 1–5): `v` per window; `dv` and `nad2v` sized to
+/// `n_windows` and zeroed, for [`differences`] to fill.
+fn max_filter(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
     out.v.clear();
     out.v.resize(n_windows, 0.0);
     out.dv.clear();
@@ -625,7 +632,6 @@ pub fn find_low_freq(scan: Scan<'_>, n_windows: usize, out: &mut LowFreq) {
     {
         *v = cur_max;
     }
-    differences(out);
 }
 
 /// `dv` and `nad2v` from `v` (`FIND-LOW-FREQ` lines 6–12), wrapped (interpretation 4).
@@ -660,35 +666,40 @@ fn differences(out: &mut LowFreq) {
 /// yields a candidate itself; it only stops blocking its neighbours. Returns the number of
 /// windows filled.
 pub fn fill_notches(params: &FoliageParams, low: &mut LowFreq) -> usize {
-    let n = low.v.len();
+    let filled = fill_notches_in(params, &mut low.v);
+    if filled > 0 {
+        differences(low);
+    }
+    filled
+}
+
+/// The filling of [`fill_notches`] on the window maxima alone (the differences are not touched).
+fn fill_notches_in(params: &FoliageParams, v: &mut [f32]) -> usize {
+    let n = v.len();
     if n < 3 {
         return 0;
     }
-    // the raw maxima of i-2, i-1 (before any filling), and of the circle's first two windows
-    let (first, second) = (low.v[0], low.v[1]);
-    let (mut prev2, mut prev) = (low.v[n - 2], low.v[n - 1]);
+    // a rolling window of the raw maxima v(i-2) … v(i+2); past the end it wraps onto the first
+    // two windows' raw values, saved before they can be filled
+    let (first, second) = (v[0], v[1]);
+    let (mut prev2, mut prev, mut cur, mut next) = (v[n - 2], v[n - 1], first, second);
     let mut filled = 0;
     for i in 0..n {
-        let cur = low.v[i];
-        let at = |k: usize| match k {
+        let next2 = match i + 2 {
+            k if k < n => v[k],
             k if k == n => first,
-            k if k == n + 1 => second,
-            k => low.v[k],
+            _ => second,
         };
-        let (next, next2) = (at(i + 1), at(i + 2));
         let floor = prev.min(next);
         if floor > cur {
             let tol = relax_tolerance(params, floor, 0.0, 0.0);
             let agree = |a: f32, b: f32| (a - b).abs() < tol;
             if agree(prev, next) && agree(prev2, prev) && agree(next, next2) {
-                low.v[i] = floor;
+                v[i] = floor;
                 filled += 1;
             }
         }
-        (prev2, prev) = (prev, cur);
-    }
-    if filled > 0 {
-        differences(low);
+        (prev2, prev, cur, next) = (prev, cur, next, next2);
     }
     filled
 }
@@ -1277,10 +1288,13 @@ impl Classifier {
         };
         let ne = scan.len();
 
-        find_low_freq(scan, self.n_windows, &mut self.low);
+        // FIND-LOW-FREQ, with the notches filled (interpretation 16) between its max filter and
+        // its differences
+        max_filter(scan, self.n_windows, &mut self.low);
         if p.fill_notches {
-            fill_notches(&p, &mut self.low);
+            fill_notches_in(&p, &mut self.low.v);
         }
+        differences(&mut self.low);
         get_obst_candidates(
             &p,
             scan,

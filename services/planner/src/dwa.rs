@@ -26,8 +26,9 @@ pub struct DwaParams {
     pub max_alpha: f64,
     /// Footprint radius, m.
     pub radius_m: f64,
-    /// Distance kept from solid and glass cells beyond the footprint, m (at least about half a
-    /// cell: clearance is measured between cell centres).
+    /// Distance kept from solid and glass cells beyond the footprint, m. At least a cell: the
+    /// clearance is measured between cell centres, so it overstates the distance to a surface by
+    /// up to half a cell's diagonal, and a surface seen obliquely fills its outermost cells last.
     pub margin_m: f64,
     /// Time the window's accelerations apply over (the control period), s.
     pub window_s: f64,
@@ -56,7 +57,7 @@ impl Default for DwaParams {
             max_accel: 0.6,
             max_alpha: 3.0,
             radius_m: 0.2,
-            margin_m: 0.05,
+            margin_m: 0.1,
             window_s: 0.5,
             dt_s: 0.1,
             horizon_s: 3.5,
