@@ -1614,7 +1614,9 @@ fn fill_notches_fills_single_window_dips_only() {
     assert_eq!(fill_notches(&p, &mut low), 2);
     assert_eq!(
         low.v,
-        vec![3.0, 3.0, 3.0, 3.0, 3.02, 3.04, 1.0, 3.0, 3.2, 3.2, 0.0, 0.0, 3.0, 3.0]
+        vec![
+            3.0, 3.0, 3.0, 3.0, 3.02, 3.04, 1.0, 3.0, 3.2, 3.2, 0.0, 0.0, 3.0, 3.0
+        ]
     );
     // the differences are those of the filled maxima
     let mut expect = low.clone();
