@@ -144,6 +144,11 @@ fn classifier() -> Classifier {
     }
 }
 
+/// A classifier with the given parameters.
+fn classifier_with(params: FoliageParams) -> Classifier {
+    Classifier::new(params).unwrap_or_else(|e| panic!("params rejected: {e}"))
+}
+
 /// A classifier with 4-beam windows (α = 0.8°, the default before the simulated evaluation): the
 /// setting for a scan whose obstacle returns are the farthest ones of a partly hidden obstacle (a
 /// last-return scan in grass), where more beams per window make it likelier that one reaches.
@@ -1548,12 +1553,11 @@ fn broken_wall_scan(rng: &mut Rng) -> (Vec<f32>, Vec<f32>) {
 fn confirmed_obstacle_is_held_through_broken_windows() {
     for hold in [true, false] {
         let mut rng = Rng::new(5);
-        let mut c = Classifier::new(FoliageParams {
+        let mut c = classifier_with(FoliageParams {
             hold_obstacles: hold,
             fill_notches: false,
             ..Default::default()
-        })
-        .unwrap_or_else(|e| panic!("params rejected: {e}"));
+        });
         for _ in 0..3 {
             let (a, r) = wall_scan(&mut rng);
             c.classify(&a, &r);
@@ -1581,11 +1585,10 @@ fn confirmed_obstacle_is_held_through_broken_windows() {
 #[test]
 fn nothing_is_held_before_it_is_confirmed() {
     let mut rng = Rng::new(6);
-    let mut c = Classifier::new(FoliageParams {
+    let mut c = classifier_with(FoliageParams {
         fill_notches: false,
         ..Default::default()
-    })
-    .unwrap_or_else(|e| panic!("params rejected: {e}"));
+    });
     for k in 0..10 {
         let (a, r) = broken_wall_scan(&mut rng);
         let v = c.classify(&a, &r);
@@ -1641,11 +1644,10 @@ fn fill_notches_fills_single_window_dips_only() {
 fn notch_filling_confirms_a_wall_behind_single_blade_windows() {
     for fill in [true, false] {
         let mut rng = Rng::new(7);
-        let mut c = Classifier::new(FoliageParams {
+        let mut c = classifier_with(FoliageParams {
             fill_notches: fill,
             ..Default::default()
-        })
-        .unwrap_or_else(|e| panic!("params rejected: {e}"));
+        });
         let alarms: Vec<bool> = (0..4)
             .map(|_| {
                 let (a, r) = broken_wall_scan(&mut rng);
