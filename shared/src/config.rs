@@ -427,6 +427,13 @@ pub struct MapperConfig {
     pub surface_memory_s: f64,
     /// Kept surface cells farther than this from the robot are forgotten, m.
     pub surface_memory_m: f64,
+    /// Tall cells (a return above `tall_m`, no beam through) found in two revolutions in a row
+    /// are kept this long while the robot moves (0: not kept), s: close by, a bush behind
+    /// grass returns too little light to tell from the grass, though its top stood out from
+    /// farther away.
+    pub tall_memory_s: f64,
+    /// Kept tall cells farther than this from the robot are forgotten, m.
+    pub tall_memory_m: f64,
     /// Glass: a spike's returns reach at least this intensity (the top of the diffuse range).
     pub glass_intensity: f64,
     /// Glass: the spike rises and falls by at least this much.
@@ -468,6 +475,8 @@ impl Default for MapperConfig {
             surface_min_returns: 2,
             surface_memory_s: 3.0,
             surface_memory_m: 3.0,
+            tall_memory_s: 10.0,
+            tall_memory_m: 5.0,
             ground_clearance_m: 0.08,
             min_returns_solid: 1,
             glass_intensity: 100.0,
@@ -555,6 +564,8 @@ impl MapperConfig {
         );
         r.check("mapper.surface_memory_s", self.surface_memory_s, 0.0, 600.0);
         r.check("mapper.surface_memory_m", self.surface_memory_m, 0.0, 100.0);
+        r.check("mapper.tall_memory_s", self.tall_memory_s, 0.0, 600.0);
+        r.check("mapper.tall_memory_m", self.tall_memory_m, 0.0, 100.0);
         r.check(
             "mapper.ground_clearance_m",
             self.ground_clearance_m,

@@ -1,7 +1,8 @@
 //! One revolution through the whole mapper (binning into n = 200, m = 4 layers, classes, glass
 //! detection and memory, plan cost), one core: the real dual-return capture's revolutions, and a
 //! simulated revolution of scenario 1 (glass in view) for comparison; each also with the surface
-//! cue off (`mapper.surface_min_returns = 0`), to show what the cue costs.
+//! cue off (`mapper.surface_min_returns = 0`) and with tall cells not kept
+//! (`mapper.tall_memory_s = 0`), to show what each costs.
 //!
 //! `cargo bench -p mimnav-mapper --bench mapper`
 
@@ -21,6 +22,11 @@ fn time(name: &str, revs: &[Vec<Point>]) {
         ..MapperParams::default()
     };
     time_with(&format!("{name}, surface cue off"), off, revs);
+    let off = MapperParams {
+        tall_memory_ns: 0,
+        ..MapperParams::default()
+    };
+    time_with(&format!("{name}, tall cells not kept"), off, revs);
 }
 
 fn time_with(name: &str, params: MapperParams, revs: &[Vec<Point>]) {
@@ -54,13 +60,14 @@ fn time_with(name: &str, params: MapperParams, revs: &[Vec<Point>]) {
         .unwrap_or_default();
     println!(
         "{name}: {points} points a revolution: mean {:.0} µs, best {best:.0} µs ({n} revolutions); \
-         glass cells detected {}, in memory {}, extrapolated {}; surface cells found {}, in memory {}",
+         glass cells detected {}, in memory {}, extrapolated {}; surface cells found {}, in memory {}; tall cells in memory {}",
         total / n as f64,
         stats.glass_detected,
         stats.glass_memory,
         stats.glass_extended,
         stats.surface_found,
-        stats.surface_memory
+        stats.surface_memory,
+        stats.tall_memory
     );
 }
 

@@ -100,15 +100,53 @@ pub struct Pose2 {
 impl Pose2 {
     /// Robot frame → odometry frame (the T of equation 6).
     pub fn to_odom(&self, x: f64, y: f64) -> (f64, f64) {
-        let (s, c) = self.yaw.sin_cos();
-        (self.x + c * x - s * y, self.y + s * x + c * y)
+        self.frame().to_odom(x, y)
     }
 
     /// Odometry frame → robot frame.
     pub fn to_robot(&self, x: f64, y: f64) -> (f64, f64) {
+        self.frame().to_robot(x, y)
+    }
+
+    /// The pose with the sine and cosine of its heading worked out once, to move many points.
+    pub fn frame(&self) -> Frame {
         let (s, c) = self.yaw.sin_cos();
+        Frame {
+            x: self.x,
+            y: self.y,
+            sin: s,
+            cos: c,
+        }
+    }
+}
+
+/// A [`Pose2`] ready to move points between the robot and odometry frames.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    x: f64,
+    y: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl Frame {
+    /// Robot frame → odometry frame.
+    #[inline]
+    pub fn to_odom(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            self.x + self.cos * x - self.sin * y,
+            self.y + self.sin * x + self.cos * y,
+        )
+    }
+
+    /// Odometry frame → robot frame.
+    #[inline]
+    pub fn to_robot(&self, x: f64, y: f64) -> (f64, f64) {
         let (dx, dy) = (x - self.x, y - self.y);
-        (c * dx + s * dy, -s * dx + c * dy)
+        (
+            self.cos * dx + self.sin * dy,
+            -self.sin * dx + self.cos * dy,
+        )
     }
 }
 
@@ -141,22 +179,6 @@ impl GlassMemory {
         self.entries.insert(key, (ox, oy, now_ns));
     }
 
-    /// Forgets every entry.
-    pub fn clear(&mut self) {
-        self.entries.clear();
-    }
-
-    /// True when an entry lies in the cell of robot-frame (x, y) seen from `pose`, or in one of
-    /// the eight cells around it.
-    pub fn holds_near(&self, pose: &Pose2, x: f64, y: f64) -> bool {
-        let (ox, oy) = pose.to_odom(x, y);
-        let (kx, ky) = (
-            (ox / self.cell_m).floor() as i64,
-            (oy / self.cell_m).floor() as i64,
-        );
-        (-1..=1).any(|dx| (-1..=1).any(|dy| self.entries.contains_key(&(kx + dx, ky + dy))))
-    }
-
     /// Forgets entries older than `max_age_ns` or farther than `max_distance_m` from `pose`.
     pub fn expire(&mut self, pose: &Pose2, now_ns: u64, max_age_ns: u64, max_distance_m: f64) {
         self.entries.retain(|_, (x, y, t)| {
@@ -183,16 +205,20 @@ impl GlassMemory {
                 cells.push(i);
             }
         };
-        let mut pts: Vec<(f64, f64)> = Vec::with_capacity(self.entries.len());
+        let fill = gap_fill_m > 0.0;
+        let mut pts: Vec<(f64, f64)> = Vec::new();
+        let frame = pose.frame();
         for (x, y, _) in self.entries.values() {
-            let (rx, ry) = pose.to_robot(*x, *y);
+            let (rx, ry) = frame.to_robot(*x, *y);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
                 push(grid.index(r, c), cells, marked);
-                pts.push((rx, ry));
+                if fill {
+                    pts.push((rx, ry));
+                }
             }
         }
         // join entries closer than the gap: a pane detected in pieces becomes one
-        let fill = gap_fill_m > 0.0 && pts.len() >= 2;
+        let fill = fill && pts.len() >= 2;
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         let step = f64::from(grid.cell_m) * 0.5;
         for i in 0..if fill { pts.len() } else { 0 } {

@@ -92,6 +92,10 @@ pub struct MapperParams {
     pub surface_memory_ns: u64,
     /// Kept surface cells farther than this are forgotten, m.
     pub surface_memory_m: f64,
+    /// Tall cells are kept this long, ns (0: not kept).
+    pub tall_memory_ns: u64,
+    /// Kept tall cells farther than this are forgotten, m.
+    pub tall_memory_m: f64,
     /// Glass spike detector.
     pub spike: SpikeParams,
     /// Glass memory: age limit, ns.
@@ -128,6 +132,8 @@ impl MapperParams {
             surface_min_returns: m.surface_min_returns.min(u32::from(u16::MAX)) as u16,
             surface_memory_ns: (m.surface_memory_s * 1e9) as u64,
             surface_memory_m: m.surface_memory_m,
+            tall_memory_ns: (m.tall_memory_s * 1e9) as u64,
+            tall_memory_m: m.tall_memory_m,
             spike: SpikeParams {
                 threshold: m.glass_intensity as f32,
                 gradient: m.glass_gradient as f32,
@@ -190,6 +196,8 @@ pub struct UpdateStats {
     pub surface_found: u32,
     /// Entries in the surface memory.
     pub surface_memory: u32,
+    /// Entries in the tall-cell memory.
+    pub tall_memory: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -225,14 +233,13 @@ pub struct Mapper {
     cost: Vec<u8>,
     memory: GlassMemory,
     /// Cells the surface cue made solid, kept in the odometry frame like glass.
-    surface_memory: GlassMemory,
-    /// Cells the surface cue made solid in the last revolutions (a cell is kept once the cue
-    /// finds it again).
-    surface_seen: GlassMemory,
+    surface_kept: Kept,
     /// Cells the surface cue made solid in this revolution.
     surface_cells: Vec<usize>,
-    /// Cells the surface memory covers, this revolution.
-    surface_drawn: Vec<usize>,
+    /// Tall cells (solid by the height cue), kept in the odometry frame.
+    tall_kept: Kept,
+    /// Tall cells of this revolution.
+    tall_cells: Vec<usize>,
     /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
@@ -320,10 +327,10 @@ impl Mapper {
             classes: vec![cell_class::UNKNOWN; n2],
             cost: vec![0; n2],
             memory: GlassMemory::new(f64::from(params.grid.cell_m)),
-            surface_memory: GlassMemory::new(f64::from(params.grid.cell_m)),
-            surface_seen: GlassMemory::new(f64::from(params.grid.cell_m)),
+            surface_kept: Kept::new(n2),
             surface_cells: Vec::new(),
-            surface_drawn: Vec::new(),
+            tall_kept: Kept::new(n2),
+            tall_cells: Vec::new(),
             surface_candidate: vec![false; n2],
             last_pose: None,
             rings: vec![Vec::new(); 16],
@@ -672,6 +679,7 @@ impl Mapper {
         self.cost.fill(0);
         let gamma = self.params.gamma;
         self.surface_cells.clear();
+        self.tall_cells.clear();
         let solid_max_abs = self.params.solid_max * self.params.full_scale;
         let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
         for t in 0..self.touched.len() {
@@ -702,6 +710,9 @@ impl Mapper {
             // the surface cue looks at cells that stand out neither by brightness or height nor
             // as an opaque surface (walls: the memory stays small)
             self.surface_candidate[i] = surface_cue && !tall && !bright && !opaque;
+            if tall {
+                self.tall_cells.push(i);
+            }
             if mean <= gamma && !opaque && !tall && !stops && !bright {
                 self.classes[i] = cell_class::PASSABLE;
                 self.cost[i] = self.params.passable_cost;
@@ -727,7 +738,9 @@ impl Mapper {
         }
         stats.surface_found = self.surface_cells.len() as u32;
         self.remember_surfaces(odom, now_ns);
-        stats.surface_memory = self.surface_memory.len() as u32;
+        stats.surface_memory = self.surface_kept.len() as u32;
+        self.remember_tall(odom, now_ns);
+        stats.tall_memory = self.tall_kept.len() as u32;
         for &i in &self.glass_drawn {
             if self.classes[i] != cell_class::SOLID {
                 self.classes[i] = cell_class::GLASS;
@@ -770,40 +783,71 @@ impl Mapper {
         if let OdomInput::Fresh(Odom { pose, .. }) = odom {
             // kept once found again: a rock is on its surface revolution after revolution,
             // a curtain's swaying strands only now and then
-            for &i in &self.surface_cells {
-                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
-                let (x, y) = (f64::from(x), f64::from(y));
-                if self.surface_seen.holds_near(&pose, x, y) {
-                    self.surface_memory.add(&pose, x, y, now_ns);
-                }
-            }
-            self.surface_seen.clear();
-            for &i in &self.surface_cells {
-                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
-                self.surface_seen
-                    .add(&pose, f64::from(x), f64::from(y), now_ns);
-            }
-            self.surface_memory.expire(
+            self.surface_kept.remember(
+                &self.surface_cells,
+                grid,
                 &pose,
                 now_ns,
                 self.params.surface_memory_ns,
                 self.params.surface_memory_m,
+                |_| false,
             );
+        } else if let Some(pose) = self.last_pose {
+            self.surface_kept.draw(&pose, grid);
         }
-        let Some(pose) = self.last_pose else { return };
-        self.surface_drawn.clear();
-        self.surface_memory.draw(
-            &pose,
-            grid,
-            0.0,
-            &mut self.surface_drawn,
-            &mut self.glass_marked,
-        );
-        for &i in &self.surface_drawn {
+        for &i in &self.surface_kept.drawn {
             if self.classes[i] != cell_class::GLASS {
                 self.classes[i] = cell_class::SOLID;
                 self.cost[i] = 255;
             }
+        }
+    }
+
+    /// Keeps this revolution's tall cells (a return above `tall_m`, no beam through) in the
+    /// odometry frame, and draws the kept ones as solid where this revolution sees nothing of
+    /// them: a bush's top is above the grass from a distance, but close by the beams that reach
+    /// it have crossed grass and come back too faint and too few to tell it from the grass. A
+    /// kept cell a beam passes through is forgotten (a curtain's strands stop every beam of a
+    /// cell now and then, never for long), and one next to a solid cell of this revolution is
+    /// not drawn (what is seen now is where the object is).
+    fn remember_tall(&mut self, odom: OdomInput, now_ns: u64) {
+        if self.params.tall_memory_ns == 0 {
+            return;
+        }
+        let grid = self.params.grid;
+        if let OdomInput::Fresh(Odom { pose, .. }) = odom {
+            // a beam through the cell now: open (a curtain), forgotten
+            let (evidence, dirty) = (&self.evidence, &self.dirty);
+            self.tall_kept.remember(
+                &self.tall_cells,
+                grid,
+                &pose,
+                now_ns,
+                self.params.tall_memory_ns,
+                self.params.tall_memory_m,
+                |i| dirty[i] && evidence[i].passed > 0,
+            );
+        } else if let Some(pose) = self.last_pose {
+            self.tall_kept.draw(&pose, grid);
+        }
+        let n = grid.cells;
+        let (classes, evidence, dirty) = (&self.classes, &self.evidence, &self.dirty);
+        self.tall_kept.drawn.retain(|&i| {
+            if classes[i] == cell_class::SOLID || classes[i] == cell_class::GLASS {
+                return false;
+            }
+            if dirty[i] && evidence[i].passed > 0 {
+                return false;
+            }
+            let (r, c) = (i / n, i % n);
+            !(r.saturating_sub(1)..=(r + 1).min(n - 1)).any(|rr| {
+                (c.saturating_sub(1)..=(c + 1).min(n - 1))
+                    .any(|cc| classes[rr * n + cc] == cell_class::SOLID)
+            })
+        });
+        for &i in &self.tall_kept.drawn {
+            self.classes[i] = cell_class::SOLID;
+            self.cost[i] = 255;
         }
     }
 
@@ -841,6 +885,154 @@ impl Mapper {
                     e.surface = e.surface.saturating_add(1);
                 }
             }
+        }
+    }
+}
+
+/// Cells kept in the odometry frame once found in two revolutions in a row (near each other),
+/// forgotten by age and distance, like the glass memory. Entries are deduplicated through the
+/// grid as they are drawn (one per cell), so the memory needs no hashing: it is worked on for
+/// hundreds of cells every revolution.
+#[derive(Debug)]
+struct Kept {
+    /// Odometry-frame centres of the kept cells, and when each was last found.
+    entries: Vec<(f64, f64, u64)>,
+    /// Odometry-frame centres of the cells found in the last revolution.
+    last: Vec<(f64, f64)>,
+    /// The kept cells in the grid, this revolution.
+    drawn: Vec<usize>,
+    /// Per cell: the entry drawn there ([`NO_CELL`]: none); reset after each use.
+    slot: Vec<u32>,
+    /// Per cell: a cell of the last revolution lies there; reset after each use.
+    near_last: Vec<bool>,
+    /// Cells flagged in `near_last`.
+    flagged: Vec<usize>,
+}
+
+impl Kept {
+    fn new(cells: usize) -> Self {
+        Kept {
+            entries: Vec::new(),
+            last: Vec::new(),
+            drawn: Vec::new(),
+            slot: vec![NO_CELL; cells],
+            near_last: vec![false; cells],
+            flagged: Vec::new(),
+        }
+    }
+
+    /// Entries held.
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Draws the entries seen from `pose` into `drawn` (one entry per cell: duplicates merge,
+    /// keeping the latest time) and, with `keep` = Some((now, max age, max distance)), forgets
+    /// entries older or farther than that, or in a cell `forget` names. Leaves `slot` set for
+    /// the drawn cells.
+    fn place(
+        &mut self,
+        pose: &Pose2,
+        grid: GridSpec,
+        keep: Option<(u64, u64, f64)>,
+        forget: impl Fn(usize) -> bool,
+    ) {
+        self.drawn.clear();
+        let frame = pose.frame();
+        let mut out = 0;
+        for k in 0..self.entries.len() {
+            let e = self.entries[k];
+            if let Some((now, age, dist)) = keep
+                && (now.saturating_sub(e.2) > age || (e.0 - pose.x).hypot(e.1 - pose.y) > dist)
+            {
+                continue;
+            }
+            let (rx, ry) = frame.to_robot(e.0, e.1);
+            if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
+                let i = grid.index(r, c);
+                if keep.is_some() && forget(i) {
+                    continue;
+                }
+                let j = self.slot[i];
+                if j != NO_CELL {
+                    let held = &mut self.entries[j as usize];
+                    held.2 = held.2.max(e.2);
+                    continue;
+                }
+                self.slot[i] = out as u32;
+                self.drawn.push(i);
+            }
+            self.entries[out] = e;
+            out += 1;
+        }
+        self.entries.truncate(out);
+    }
+
+    /// Keeps the `cells` found now (robot grid, seen from `pose`) that lie near a cell found in
+    /// the last revolution, forgets entries older than `max_age_ns`, farther than `max_m` or in
+    /// a cell `forget` names, and draws the memory.
+    #[allow(clippy::too_many_arguments)]
+    fn remember(
+        &mut self,
+        cells: &[usize],
+        grid: GridSpec,
+        pose: &Pose2,
+        now_ns: u64,
+        max_age_ns: u64,
+        max_m: f64,
+        forget: impl Fn(usize) -> bool,
+    ) {
+        self.place(pose, grid, Some((now_ns, max_age_ns, max_m)), forget);
+        let frame = pose.frame();
+        for &(ox, oy) in &self.last {
+            let (rx, ry) = frame.to_robot(ox, oy);
+            if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
+                let i = grid.index(r, c);
+                if !self.near_last[i] {
+                    self.near_last[i] = true;
+                    self.flagged.push(i);
+                }
+            }
+        }
+        let n = grid.cells;
+        self.last.clear();
+        for &i in cells {
+            let (r, c) = (i / n, i % n);
+            let (x, y) = grid.center_of(r, c);
+            let (ox, oy) = frame.to_odom(f64::from(x), f64::from(y));
+            self.last.push((ox, oy));
+            let again = (r.saturating_sub(1)..=(r + 1).min(n - 1)).any(|rr| {
+                (c.saturating_sub(1)..=(c + 1).min(n - 1)).any(|cc| self.near_last[rr * n + cc])
+            });
+            if !again {
+                continue;
+            }
+            match self.slot[i] {
+                NO_CELL => {
+                    self.slot[i] = self.entries.len() as u32;
+                    self.entries.push((ox, oy, now_ns));
+                    self.drawn.push(i);
+                }
+                j => self.entries[j as usize].2 = now_ns,
+            }
+        }
+        for &i in &self.flagged {
+            self.near_last[i] = false;
+        }
+        self.flagged.clear();
+        self.reset_slots();
+    }
+
+    /// Draws the memory seen from `pose`, as it is (no fresh odometry: nothing is added or
+    /// forgotten).
+    fn draw(&mut self, pose: &Pose2, grid: GridSpec) {
+        self.place(pose, grid, None, |_| false);
+        self.reset_slots();
+    }
+
+    fn reset_slots(&mut self) {
+        for &i in &self.drawn {
+            self.slot[i] = NO_CELL;
         }
     }
 }

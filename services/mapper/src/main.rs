@@ -190,6 +190,7 @@ fn run(config: &Config) -> Result<()> {
                 glass_memory = stats.glass_memory,
                 surface_found = stats.surface_found,
                 surface_memory = stats.surface_memory,
+                tall_memory = stats.tall_memory,
                 status,
                 "map"
             );

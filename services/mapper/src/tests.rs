@@ -471,6 +471,11 @@ fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry(
         "not where it was"
     );
     // forgotten after surface_memory_s (3 s)
+    assert_eq!(
+        m.params().surface_memory_ns,
+        3 * s,
+        "the documented default"
+    );
     m.update(&[], fresh(1.0, 0.0), 4 * s);
     assert_ne!(class_at(&m, 0.5, 0.0), cell_class::SOLID, "expired");
     // and not kept at all with surface_memory_s = 0
@@ -482,4 +487,103 @@ fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry(
     m.update(&rock, fresh(0.0, 0.0), s / 10);
     m.update(&[], fresh(0.0, 0.0), s / 5);
     assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "memory off");
+}
+
+/// A bush's top above the grass seen from afar: faint last returns 1.1 m above the ground
+/// (0.6 m above the sensor), each behind a blade, around (x, y).
+fn bush_top(x: f32, y: f32) -> Vec<Point> {
+    (0..4)
+        .flat_map(|k| through_blade(x, y + 0.005 * k as f32, 0.6, 1.0, 14))
+        .collect()
+}
+
+/// The same place seen close by through grass: one faint last return low down, behind a blade.
+fn bush_through_grass(x: f32, y: f32) -> Vec<Point> {
+    through_blade(x, y, -0.2, 0.5, 3).to_vec()
+}
+
+#[test]
+fn a_tall_cell_found_twice_is_kept_where_grass_hides_it_and_moves_with_the_odometry() {
+    let s = 1_000_000_000u64;
+    let (x, y) = (2.02f32, 1.02f32);
+    let mut m = mapper();
+    m.update(&bush_top(x, y), fresh(0.0, 0.0), 0);
+    assert_eq!(
+        class_at(&m, x, y),
+        cell_class::SOLID,
+        "tall, nothing through"
+    );
+    // seen through grass with nothing kept: passable by equation 3
+    m.update(&bush_through_grass(x - 1.0, y), fresh(1.0, 0.0), s / 10);
+    assert_eq!(
+        class_at(&m, x - 1.0, y),
+        cell_class::PASSABLE,
+        "found once: not kept"
+    );
+    // found in two revolutions in a row, then seen only through grass 1 m nearer: kept
+    let mut m = mapper();
+    m.update(&bush_top(x, y), fresh(0.0, 0.0), 0);
+    m.update(&bush_top(x, y), fresh(0.0, 0.0), s / 10);
+    m.update(&bush_through_grass(x - 1.0, y), fresh(1.0, 0.0), s);
+    assert_eq!(
+        class_at(&m, x - 1.0, y),
+        cell_class::SOLID,
+        "kept, 1 m nearer"
+    );
+    assert_ne!(class_at(&m, x, y), cell_class::SOLID, "not where it was");
+    // stale odometry: the memory stays where it was drawn last
+    m.update(&[], OdomInput::Stale, 2 * s);
+    assert_eq!(
+        class_at(&m, x - 1.0, y),
+        cell_class::SOLID,
+        "stale odometry"
+    );
+    // forgotten after tall_memory_s (10 s)
+    assert_eq!(m.params().tall_memory_ns, 10 * s, "the documented default");
+    m.update(&[], fresh(1.0, 0.0), 12 * s);
+    assert_ne!(class_at(&m, x - 1.0, y), cell_class::SOLID, "expired");
+    // and never kept with tall_memory_s = 0
+    let mut m = Mapper::new(MapperParams {
+        tall_memory_ns: 0,
+        ..MapperParams::default()
+    });
+    m.update(&bush_top(x, y), fresh(0.0, 0.0), 0);
+    m.update(&bush_top(x, y), fresh(0.0, 0.0), s / 10);
+    m.update(&bush_through_grass(x - 1.0, y), fresh(1.0, 0.0), s);
+    assert_eq!(class_at(&m, x - 1.0, y), cell_class::PASSABLE, "memory off");
+}
+
+#[test]
+fn a_kept_tall_cell_gives_way_to_a_beam_through_it_and_to_what_is_seen_now() {
+    let s = 1_000_000_000u64;
+    let (x, y) = (2.02f32, 1.02f32);
+    let kept = || {
+        let mut m = mapper();
+        m.update(&bush_top(x, y), fresh(0.0, 0.0), 0);
+        m.update(&bush_top(x, y), fresh(0.0, 0.0), s / 10);
+        m
+    };
+    // a curtain's strand stopped the beams for two revolutions; now one goes through the cell
+    // to the wall 1 m behind it
+    let mut m = kept();
+    let d = x.hypot(y);
+    let through = through_blade(x * (d + 1.0) / d, y * (d + 1.0) / d, 0.0, d, 7);
+    m.update(&through, fresh(0.0, 0.0), s / 5);
+    assert_eq!(
+        class_at(&m, x, y),
+        cell_class::PASSABLE,
+        "a beam passed through"
+    );
+    // and forgotten: not drawn in the next revolution either
+    m.update(&[], fresh(0.0, 0.0), s / 4);
+    assert_ne!(class_at(&m, x, y), cell_class::SOLID, "forgotten");
+    // the object is seen now one cell over: the kept cell is not drawn beside it
+    let mut m = kept();
+    m.update(&bush_top(x + 0.05, y), fresh(0.0, 0.0), s / 5);
+    assert_eq!(class_at(&m, x + 0.05, y), cell_class::SOLID, "seen now");
+    assert_ne!(class_at(&m, x, y), cell_class::SOLID, "not drawn beside it");
+    // with nothing seen there now, it is drawn
+    let mut m = kept();
+    m.update(&[], fresh(0.0, 0.0), s / 5);
+    assert_eq!(class_at(&m, x, y), cell_class::SOLID, "nothing seen now");
 }
