@@ -815,9 +815,11 @@ impl Mapper {
             return;
         }
         let grid = self.params.grid;
+        let (classes, evidence, dirty) = (&self.classes, &self.evidence, &self.dirty);
+        // a beam through the cell now: open (a curtain); forgotten with fresh odometry, at least
+        // not drawn without
+        let through = |i: usize| dirty[i] && evidence[i].passed > 0;
         if let OdomInput::Fresh(Odom { pose, .. }) = odom {
-            // a beam through the cell now: open (a curtain), forgotten
-            let (evidence, dirty) = (&self.evidence, &self.dirty);
             self.tall_kept.remember(
                 &self.tall_cells,
                 grid,
@@ -825,25 +827,16 @@ impl Mapper {
                 now_ns,
                 self.params.tall_memory_ns,
                 self.params.tall_memory_m,
-                |i| dirty[i] && evidence[i].passed > 0,
+                through,
             );
         } else if let Some(pose) = self.last_pose {
             self.tall_kept.draw(&pose, grid);
         }
-        let n = grid.cells;
-        let (classes, evidence, dirty) = (&self.classes, &self.evidence, &self.dirty);
         self.tall_kept.drawn.retain(|&i| {
-            if classes[i] == cell_class::SOLID || classes[i] == cell_class::GLASS {
-                return false;
-            }
-            if dirty[i] && evidence[i].passed > 0 {
-                return false;
-            }
-            let (r, c) = (i / n, i % n);
-            !(r.saturating_sub(1)..=(r + 1).min(n - 1)).any(|rr| {
-                (c.saturating_sub(1)..=(c + 1).min(n - 1))
-                    .any(|cc| classes[rr * n + cc] == cell_class::SOLID)
-            })
+            classes[i] != cell_class::SOLID
+                && classes[i] != cell_class::GLASS
+                && !through(i)
+                && !near3(grid.cells, i, |j| classes[j] == cell_class::SOLID)
         });
         for &i in &self.tall_kept.drawn {
             self.classes[i] = cell_class::SOLID;
@@ -1001,10 +994,7 @@ impl Kept {
             let (x, y) = grid.center_of(r, c);
             let (ox, oy) = frame.to_odom(f64::from(x), f64::from(y));
             self.last.push((ox, oy));
-            let again = (r.saturating_sub(1)..=(r + 1).min(n - 1)).any(|rr| {
-                (c.saturating_sub(1)..=(c + 1).min(n - 1)).any(|cc| self.near_last[rr * n + cc])
-            });
-            if !again {
+            if !near3(n, i, |j| self.near_last[j]) {
                 continue;
             }
             match self.slot[i] {
@@ -1035,6 +1025,14 @@ impl Kept {
             self.slot[i] = NO_CELL;
         }
     }
+}
+
+/// Whether `f` holds for cell i of an n × n grid or one of the cells around it.
+#[inline]
+fn near3(n: usize, i: usize, f: impl Fn(usize) -> bool) -> bool {
+    let (r, c) = (i / n, i % n);
+    (r.saturating_sub(1)..=(r + 1).min(n - 1))
+        .any(|rr| (c.saturating_sub(1)..=(c + 1).min(n - 1)).any(|cc| f(rr * n + cc)))
 }
 
 /// Glass cells closer than this belong to one pane when extrapolating, m.
