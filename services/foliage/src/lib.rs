@@ -96,13 +96,16 @@
 //! 14. **Window count**: `n_windows = ⌈2π/α⌉`, except that a remainder smaller than 0.1 % of `α`
 //!     (rounding of `α` itself, e.g. `1°` in `f32`) does not create an extra sliver window; likewise
 //!     for sectors.
-//! 15. **Held obstacles** (beyond the paper; `hold_obstacles`, on by default): a window whose
-//!     confirmed obstacles (`R_f`) of the previous scan reached out to range `R` passes
-//!     `GET-OBST-CANDIDATES` when its maximum `v(i)` is within `RELAX-OBST`'s tolerance of `R`,
-//!     whatever its neighbours' `nad2v`. A trunk behind grass was lost in about one scan in 14 when
-//!     blades broke the seven smooth windows the paper's test needs; with this, in the simulated
-//!     evaluation, 99.6 % of those scans alarm instead of 92–93 %, and grass alone still never
-//!     alarms (nothing is held before an alarm).
+//! 15. **Held obstacles** (beyond the paper; `hold_obstacles`, on by default): a window `i` passes
+//!     `GET-OBST-CANDIDATES`, whatever its neighbours' `nad2v`, when its maximum `v(i)` is within
+//!     `RELAX-OBST`'s tolerance of `R`, the farthest confirmed obstacle range (`R_f`) of the
+//!     previous scan in window `i`, `i-1` or `i+1` (the paper's locality in time: an obstacle
+//!     found at `φ` "will be located at around `φ`" one scan later; driving past it, its bearing
+//!     drifts by up to half a window per scan). A trunk behind grass was lost in about one scan
+//!     in 14 when blades broke the seven smooth windows the paper's test needs; with this, in the
+//!     simulated evaluation, 99.6 % of those scans alarm instead of 92–93 %, and grass alone
+//!     still never alarms (nothing is held before an alarm). Holding window `i` alone, as a first
+//!     version did, lost the edge windows of an obstacle whose bearing drifted.
 //! 16. **Filled notches** (beyond the paper; `fill_notches`, on by default): after the max filter, a
 //!     window whose maximum is nearer than both neighbours' takes the nearer neighbour's maximum
 //!     when the two windows on each side agree (`i-2` with `i-1`, `i-1` with `i+1`, `i+1` with
@@ -219,9 +222,9 @@ pub struct FoliageParams {
     /// hidden obstacle shows as short runs; 3 of 9 keeps those and drops isolated hits and pairs
     /// (4 of 9 lowered trunk detection in grass in the simulated tests).
     pub thin_min: usize,
-    /// **Beyond the paper** (interpretation 15): a window that held a confirmed obstacle (`R_f`)
-    /// in the previous scan passes `GET-OBST-CANDIDATES` when its maximum lies within
-    /// `RELAX-OBST`'s tolerance of that obstacle's range, smooth neighbours or not. Behind grass a
+    /// **Beyond the paper** (interpretation 15): a window at or beside one that held a confirmed
+    /// obstacle (`R_f`) in the previous scan passes `GET-OBST-CANDIDATES` when its maximum lies
+    /// within `RELAX-OBST`'s tolerance of that obstacle's range, smooth neighbours or not. Behind grass a
     /// blade in one window breaks the run of smooth windows the paper's test needs, and the alarm
     /// dropped out in about one scan in 14 on a trunk that had been confirmed all along. Only
     /// confirmed obstacles are held, so in grass that never raised an alarm nothing changes.
@@ -810,18 +813,25 @@ pub fn get_obst_candidates(
         n_blocked -= blocked(wrap(i, -2, n_w));
         n_blocked += blocked(wrap(i, 3, n_w));
     }
-    // Interpretation (15, beyond the paper): a window that held a confirmed obstacle last scan
-    // passes when its maximum is within RELAX-OBST's tolerance of that obstacle's range.
+    // Interpretation (15, beyond the paper): a window at or beside one that held a confirmed
+    // obstacle last scan passes when its maximum is within RELAX-OBST's tolerance of that
+    // obstacle's range (the paper's locality in time: "located at around φ at time t + T").
     if params.hold_obstacles && history.obst_prev.len() >= n_w {
-        for i in 0..n_w {
-            let held = history.obst_prev[i];
-            if pass[i] || held <= 0.0 || ties[i] == 0 {
+        // (from the few held windows to their neighbours, not from every window)
+        for (j, &held) in history.obst_prev[..n_w].iter().enumerate() {
+            if held <= 0.0 {
                 continue;
             }
-            let c1 = history.c_prev1.get(i).copied().unwrap_or(0.0);
-            let c2 = history.c_prev2.get(i).copied().unwrap_or(0.0);
-            let v = low.v[i];
-            pass[i] = (v - held).abs() < relax_tolerance(params, v, c1, c2);
+            for d in [-1, 0, 1] {
+                let i = wrap(j, d, n_w);
+                if pass[i] || ties[i] == 0 {
+                    continue;
+                }
+                let c1 = history.c_prev1.get(i).copied().unwrap_or(0.0);
+                let c2 = history.c_prev2.get(i).copied().unwrap_or(0.0);
+                let v = low.v[i];
+                pass[i] = (v - held).abs() < relax_tolerance(params, v, c1, c2);
+            }
         }
     }
     // Interpretation (2, DESIGN): δ/2 at i±1, δ/4 at i±2, per candidate return, own window not raised.
@@ -1011,14 +1021,16 @@ pub fn remove_new_obst(scan: Scan<'_>, history: &History, rc: &[f32], rf: &mut V
     let ne = scan.len().min(rc.len());
     rf.clear();
     rf.resize(ne, 0.0);
-    // Consecutive returns mostly share a window: remember the last answer.
+    // Only candidates need the answer, and consecutive candidates mostly share a window:
+    // remember the last one (in grass, candidates are rare and the branch is rarely taken).
     // Interpretation (6): "seen" = non-zero C_{k-1} or C_{k-2} in windows i-2..=i+2.
     let mut last = (NO_BIN, false);
     for ((f, &c), &w) in rf.iter_mut().zip(&rc[..ne]).zip(&scan.windows[..ne]) {
-        if last.0 != w {
+        let candidate = c > 0.0;
+        if candidate && last.0 != w {
             last = (w, w != NO_BIN && history.seen_near(w as usize));
         }
-        let keep = last.1 & (c > 0.0);
+        let keep = last.1 & candidate;
         *f = if keep { c } else { 0.0 };
     }
 }
@@ -1088,6 +1100,10 @@ pub fn crop_range(rf: &mut [f32], d_min: f32, d_max: f32) -> usize {
 ///   a ceiling, so the evidence reaches 0 after a finite number of scans);
 /// * never below 0.
 pub fn evidence_step(c_k: f32, c_prev1: f32) -> f32 {
+    if c_k == 0.0 && c_prev1 == 0.0 {
+        // most windows, most scans: no evidence now or before (and no rounding call)
+        return 0.0;
+    }
     let learn = c_k + c_prev1;
     // Interpretation (10): the bracket of line 16 is a ceiling, so old evidence expires.
     let forget = c_prev1 - ceil_non_negative((c_k + c_prev1) / 2.0);

@@ -558,6 +558,54 @@ fn raised_threshold_carries_to_next_scan() {
     );
 }
 
+/// Interpretation 15: a window passes, blocked neighbourhood or not, when its maximum is near the
+/// obstacle confirmed last scan in it or in the window beside it (a bearing that drifted), but
+/// not two windows away, not at another range, and not with `hold_obstacles` off.
+#[test]
+fn held_obstacle_passes_its_own_and_the_neighbouring_windows() {
+    let n = 16;
+    // every window blocks: nothing passes the paper's test alone
+    let mut low = LowFreq {
+        v: vec![2.0; n],
+        dv: vec![0.0; n],
+        nad2v: vec![1.0; n],
+    };
+    low.v[6] = 2.01;
+    low.v[7] = 2.3;
+    let ranges = [2.0f32, 2.01, 2.0, 2.3];
+    let windows = [5u32, 6, 8, 7];
+    let sectors = [0u32; 4];
+    let scan = Scan {
+        ranges: &ranges,
+        windows: &windows,
+        sectors: &sectors,
+    };
+    let mut hist = History::free_space(n, 0.02);
+    hist.obst_prev[5] = 2.0; // confirmed last scan in window 5 only
+    hist.obst_prev[7] = 2.0; // and in window 7, where the maximum is now 0.3 m farther
+    for (hold, expect) in [(true, vec![2.0, 2.01, 2.0, 0.0]), (false, vec![0.0; 4])] {
+        let p = FoliageParams {
+            window_rad: TAU / n as f32,
+            hold_obstacles: hold,
+            ..Default::default()
+        };
+        let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
+        get_obst_candidates(&p, scan, &low, &hist, &mut tk, &mut rc, &mut work);
+        // window 5 (its own), 6 (beside 5 and 7) and 8 (beside 7) pass; 7 is at another range
+        assert_eq!(rc, expect, "hold_obstacles = {hold}");
+    }
+    // two windows away from anything held: blocked
+    hist.obst_prev.fill(0.0);
+    hist.obst_prev[3] = 2.0;
+    let p = FoliageParams {
+        window_rad: TAU / n as f32,
+        ..Default::default()
+    };
+    let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
+    get_obst_candidates(&p, scan, &low, &hist, &mut tk, &mut rc, &mut work);
+    assert_eq!(rc, vec![0.0; 4]);
+}
+
 // ---------------------------------------------------------------------------------------------
 // RELAX-OBST
 // ---------------------------------------------------------------------------------------------
