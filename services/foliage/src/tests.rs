@@ -1736,3 +1736,84 @@ fn two_window_dips_are_not_filled() {
         assert!(!v.alarm, "scan {k}: {} obstacle returns", v.obstacle_count);
     }
 }
+
+/// `Classifier::classify` against the paper's `CLASSIFY` written out with the public routines, one
+/// after the other, on a history of its own: the classifier fuses and skips work for speed, and
+/// must give the same classes, alarm, `R_s` and temporal state, scan after scan (trunks in and
+/// out of grass, a wall, empty stretches, both rules beyond the paper on and off).
+#[test]
+fn classify_matches_the_public_routines_in_order() {
+    fn reference(
+        p: &FoliageParams,
+        hist: &mut History,
+        angles: &[f32],
+        ranges: &[f32],
+    ) -> (bool, Vec<u8>, Vec<f32>) {
+        let (r, w, s) = prepared(angles, ranges, p);
+        let scan = Scan {
+            ranges: &r,
+            windows: &w,
+            sectors: &s,
+        };
+        let mut low = LowFreq::default();
+        find_low_freq(scan, p.n_windows(), &mut low);
+        if p.fill_notches {
+            fill_notches(p, &mut low);
+        }
+        let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
+        get_obst_candidates(p, scan, &low, hist, &mut tk, &mut rc, &mut work);
+        hist.archive_thresholds(&mut tk);
+        relax_obst(p, scan, hist, &mut rc, &mut RelaxWork::default());
+        let mut rf = vec![];
+        remove_new_obst(scan, hist, &rc, &mut rf);
+        remove_thin_obst(&mut rf, p.thin_window, p.thin_min, &mut vec![]);
+        crop_range(&mut rf, p.d_min_m, p.d_max_m);
+        let mut nearest = vec![0.0; p.n_sectors()];
+        let alarm = update_and_archive(p, scan, &rc, &rf, hist, &mut vec![], &mut nearest);
+        let classes = (0..r.len())
+            .map(|i| match (r[i] > 0.0, rc[i] > 0.0, rf[i] > 0.0) {
+                (_, _, true) => class::OBSTACLE,
+                (_, true, false) => class::PRUNED,
+                (true, false, false) => class::FOLIAGE,
+                (false, _, _) => class::NO_RETURN,
+            })
+            .collect();
+        (alarm, classes, nearest)
+    }
+    let scenes = [
+        Scene {
+            discs: vec![(1.5, 0.5, 0.15), (-2.0, -1.0, 0.25)],
+            ..grass_field()
+        },
+        Scene {
+            discs: vec![(2.5, -0.5, 0.1)],
+            segments: vec![((-2.0, -1.0), (-2.0, 1.0))],
+            ..Scene::open()
+        },
+        grass_field(),
+        Scene::open(),
+    ];
+    for (hold, fill) in [(true, true), (false, false), (true, false)] {
+        let p = FoliageParams {
+            hold_obstacles: hold,
+            fill_notches: fill,
+            ..Default::default()
+        };
+        let mut c = classifier_with(p);
+        let mut hist = History::free_space(p.n_windows(), p.k1);
+        let mut rng = Rng::new(11);
+        let mut alarms = 0;
+        for k in 0..80 {
+            let (a, r) = scenes[(k / 10) % scenes.len()].scan(&mut rng);
+            let (alarm, classes, nearest) = reference(&p, &mut hist, &a, &r);
+            let v = c.classify(&a, &r);
+            assert_eq!(v.alarm, alarm, "scan {k} (hold {hold}, fill {fill}): alarm");
+            assert_eq!(v.classes, &classes[..], "scan {k}: classes");
+            assert_eq!(v.nearest_per_sector, &nearest[..], "scan {k}: R_s");
+            assert_eq!(c.history(), &hist, "scan {k}: temporal state");
+            alarms += usize::from(alarm);
+        }
+        // the scenes exercise the alarm path, not only grass
+        assert!(alarms >= 20, "only {alarms} alarms in 80 scans");
+    }
+}
