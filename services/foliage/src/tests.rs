@@ -467,6 +467,26 @@ fn flat_wall_becomes_candidate_grass_band_does_not() {
     );
 }
 
+/// `GET-OBST-CANDIDATES` on hand-made window values: returns `ranges` in `windows` (one sector),
+/// `low` and `hist` as given. Returns the candidate count, `R_c` and `T_k`.
+fn candidates_given(
+    p: &FoliageParams,
+    ranges: &[f32],
+    windows: &[u32],
+    low: &LowFreq,
+    hist: &History,
+) -> (usize, Vec<f32>, Vec<f32>) {
+    let sectors = vec![0u32; ranges.len()];
+    let scan = Scan {
+        ranges,
+        windows,
+        sectors: &sectors,
+    };
+    let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
+    let count = get_obst_candidates(p, scan, low, hist, &mut tk, &mut rc, &mut work);
+    (count, rc, tk)
+}
+
 #[test]
 fn candidate_threshold_carry_and_raise() {
     // 16 windows; nad2v 0 everywhere, one return (the maximum) in window 5 only.
@@ -484,19 +504,10 @@ fn candidate_threshold_carry_and_raise() {
         dv: vec![0.0; n],
         nad2v: vec![0.0; n],
     };
-    let ranges = [1.0f32, 2.0, 2.0, 2.0];
-    let windows = [5u32, 5, 5, 9];
-    let sectors = [0u32; 4];
-    let scan = Scan {
-        ranges: &ranges,
-        windows: &windows,
-        sectors: &sectors,
-    };
     let mut hist = History::new(n);
     hist.t_prev1[3] = 0.1;
     hist.t_prev2[3] = 0.2;
-    let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
-    let count = get_obst_candidates(&p, scan, &low, &hist, &mut tk, &mut rc, &mut work);
+    let (count, rc, tk) = candidates_given(&p, &[1.0, 2.0, 2.0, 2.0], &[5, 5, 5, 9], &low, &hist);
     // Both returns tied at v(5) = 2.0 are candidates; the 1.0 one and window 9 (v = 0) are not.
     assert_eq!(count, 2);
     assert_eq!(rc, vec![0.0, 2.0, 2.0, 0.0]);
@@ -572,14 +583,7 @@ fn held_obstacle_passes_its_own_and_the_neighbouring_windows() {
     };
     low.v[6] = 2.01;
     low.v[7] = 2.3;
-    let ranges = [2.0f32, 2.01, 2.0, 2.3];
-    let windows = [5u32, 6, 8, 7];
-    let sectors = [0u32; 4];
-    let scan = Scan {
-        ranges: &ranges,
-        windows: &windows,
-        sectors: &sectors,
-    };
+    let (ranges, windows) = ([2.0f32, 2.01, 2.0, 2.3], [5u32, 6, 8, 7]);
     let mut hist = History::free_space(n, 0.02);
     hist.obst_prev[5] = 2.0; // confirmed last scan in window 5 only
     hist.obst_prev[7] = 2.0; // and in window 7, where the maximum is now 0.3 m farther
@@ -589,8 +593,7 @@ fn held_obstacle_passes_its_own_and_the_neighbouring_windows() {
             hold_obstacles: hold,
             ..Default::default()
         };
-        let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
-        get_obst_candidates(&p, scan, &low, &hist, &mut tk, &mut rc, &mut work);
+        let (_, rc, _) = candidates_given(&p, &ranges, &windows, &low, &hist);
         // window 5 (its own), 6 (beside 5 and 7) and 8 (beside 7) pass; 7 is at another range
         assert_eq!(rc, expect, "hold_obstacles = {hold}");
     }
@@ -601,8 +604,7 @@ fn held_obstacle_passes_its_own_and_the_neighbouring_windows() {
         window_rad: TAU / n as f32,
         ..Default::default()
     };
-    let (mut tk, mut rc, mut work) = (vec![], vec![], WindowWork::default());
-    get_obst_candidates(&p, scan, &low, &hist, &mut tk, &mut rc, &mut work);
+    let (_, rc, _) = candidates_given(&p, &ranges, &windows, &low, &hist);
     assert_eq!(rc, vec![0.0; 4]);
 }
 
