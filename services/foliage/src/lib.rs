@@ -224,11 +224,11 @@ pub struct FoliageParams {
     pub thin_min: usize,
     /// **Beyond the paper** (interpretation 15): a window at or beside one that held a confirmed
     /// obstacle (`R_f`) in the previous scan passes `GET-OBST-CANDIDATES` when its maximum lies
-    /// within `RELAX-OBST`'s tolerance of that obstacle's range, smooth neighbours or not. Behind grass a
-    /// blade in one window breaks the run of smooth windows the paper's test needs, and the alarm
-    /// dropped out in about one scan in 14 on a trunk that had been confirmed all along. Only
-    /// confirmed obstacles are held, so in grass that never raised an alarm nothing changes.
-    /// Default **true**.
+    /// within `RELAX-OBST`'s tolerance of that obstacle's range, smooth neighbours or not. Behind
+    /// grass a blade in one window breaks the run of smooth windows the paper's test needs, and
+    /// the alarm dropped out in about one scan in 14 on a trunk that had been confirmed all
+    /// along. Only confirmed obstacles are held, so in grass that never raised an alarm nothing
+    /// changes. Default **true**.
     pub hold_obstacles: bool,
     /// **Beyond the paper** (interpretation 16, [`fill_notches`]): a window whose maximum is
     /// nearer than both neighbouring windows', which agree with each other within `RELAX-OBST`'s
@@ -665,9 +665,9 @@ fn differences(out: &mut LowFreq) {
 /// window's maximum lies near the band's far edge, and filling the dips there made the band as
 /// smooth as a wall: in 200 scans of the synthetic ±30 % band of the tests, filling every notch
 /// gave 95 false alarms, comparing `i±1` only 23 (both measured with throwaway variants of
-/// this function), comparing all four pairs 1 (0 without filling; the test allows 1). A filled window holds no return at its new maximum, so it never
-/// yields a candidate itself; it only stops blocking its neighbours. Returns the number of
-/// windows filled.
+/// this function), comparing all four pairs 1 (0 without filling; the test allows 1). A filled
+/// window holds no return at its new maximum, so it never yields a candidate itself; it only
+/// stops blocking its neighbours. Returns the number of windows filled.
 pub fn fill_notches(params: &FoliageParams, low: &mut LowFreq) -> usize {
     let filled = fill_notches_in(params, &mut low.v);
     if filled > 0 {
