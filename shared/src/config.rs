@@ -691,6 +691,10 @@ pub struct SimConfig {
     pub lockstep_timeout_s: f64,
     /// The goal counts as reached within this distance, metres.
     pub goal_tolerance_m: f64,
+    /// Grass as blades standing in the ground, which neighbouring beams meet alike (the
+    /// VLP-16's spot is wider than its firing spacing), instead of blades drawn for each beam
+    /// on its own (the default, which every published figure uses).
+    pub grass_blades: bool,
 }
 
 impl Default for SimConfig {
@@ -706,6 +710,7 @@ impl Default for SimConfig {
             lockstep: false,
             lockstep_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
+            grass_blades: false,
         }
     }
 }

@@ -20,6 +20,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod blades;
 pub mod geometry;
 pub mod lidar;
 pub mod motion;
@@ -131,6 +132,7 @@ impl SimSettings {
                     intensity_noise: s.intensity_noise,
                     glass_specular_rad: s.glass_specular_deg.to_radians(),
                     max_range_m: 100.0,
+                    grass_blades: s.grass_blades,
                 },
             },
             limits: Limits {

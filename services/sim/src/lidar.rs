@@ -82,7 +82,8 @@ impl Vlp16 {
         Vlp16 {
             config,
             rng: fastrand::Rng::with_seed(seed),
-            caster: BeamCaster::default(),
+            // the grass is drawn apart from the per-beam noise
+            caster: BeamCaster::new(seed ^ 0x6772_6173_735f_6669),
             candidates: Vec::with_capacity(64),
             cos_elev,
             sin_elev,
@@ -133,7 +134,7 @@ impl Vlp16 {
                 self.prefilter(scene, pose, self.azimuth_deg(t_seq));
                 for laser in 0..LASERS {
                     let t_fire = firing_ns(t0, k, seq, laser);
-                    let (a, b) = self.fire(scene, pose, laser, self.azimuth_deg(t_fire));
+                    let (a, b) = self.fire(scene, pose, laser, self.azimuth_deg(t_fire), t_fire);
                     chans_a[seq * LASERS + laser] = a;
                     chans_b[seq * LASERS + laser] = b;
                 }
@@ -209,6 +210,7 @@ impl Vlp16 {
         pose: Pose,
         laser: usize,
         az_deg: f64,
+        elapsed_ns: u64,
     ) -> ((u16, u8), (u16, u8)) {
         let d = self.direction(pose, laser, az_deg);
         let o = [pose.x, pose.y, self.config.sensor_height_m];
@@ -217,6 +219,7 @@ impl Vlp16 {
             &self.candidates,
             o,
             d,
+            elapsed_ns as f64 * 1e-9,
             &self.config.physics,
             &mut self.rng,
         );

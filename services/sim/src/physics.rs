@@ -11,7 +11,10 @@
 //!   jittering by a few centimetres as strands sway;
 //! - grass and bushes are volumes: blade hits come at exponentially distributed distances
 //!   (`density` per metre), each intercepting 10–40 % of the beam (a blade is thinner than the
-//!   beam's footprint);
+//!   beam's footprint), drawn for each beam on its own;
+//! - or, with [`PhysicsParams::grass_blades`], grass is a field of blades standing in the ground
+//!   ([`crate::blades`]): the beam meets the blades its footprint really overlaps, each
+//!   intercepting the share it covers, so neighbouring beams meet the same blades;
 //! - the beam ends when less than 5 % of it is left.
 //!
 //! Echoes closer than 0.2 m along the beam arrive as one pulse and are reported as one echo with
@@ -19,8 +22,9 @@
 //! than 1 reflectivity unit are not detected. The sensor reports the last echo and
 //! the strongest one (the second strongest when the last is also the strongest).
 
+use crate::blades::{BladeField, NearBlade, beam_width, intercept as blade_intercept};
 use crate::geometry::{Hit, intersect};
-use crate::world::{Material, Object, Scene};
+use crate::world::{Material, Object, Scene, Shape};
 
 /// Tunable physics.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,6 +37,9 @@ pub struct PhysicsParams {
     pub glass_specular_rad: f64,
     /// Farthest range the sensor reports, m.
     pub max_range_m: f64,
+    /// Grass as a field of blades standing in the ground, which neighbouring beams meet alike
+    /// ([`crate::blades`]); otherwise each beam draws its own blades.
+    pub grass_blades: bool,
 }
 
 impl Default for PhysicsParams {
@@ -42,6 +49,7 @@ impl Default for PhysicsParams {
             intensity_noise: 1.5,
             glass_specular_rad: 3f64.to_radians(),
             max_range_m: 100.0,
+            grass_blades: false,
         }
     }
 }
@@ -103,11 +111,50 @@ impl Event {
     }
 }
 
-/// Reusable buffers of the beam model.
+/// Grass gathered along one horizontal ray: the lasers of a firing sequence look along the same
+/// azimuth and share it.
+#[derive(Debug, Default)]
+struct Gathered {
+    /// Object index.
+    obj: usize,
+    /// Ray origin and horizontal unit direction.
+    o: [f64; 2],
+    u: [f64; 2],
+    /// Distances along the ray gathered, `[a0, a1)`.
+    a0: f64,
+    a1: f64,
+    /// When, s.
+    time_s: f64,
+    blades: Vec<NearBlade>,
+}
+
+/// A gathered ray serves another beam whose horizontal direction is within this angle of it
+/// (the 16 lasers of a sequence sweep 0.13° at 600 rpm).
+const GATHER_SHARE_RAD: f64 = 0.0035;
+/// Gathering margin, [`BladeField::gather`]'s `(m0, m1)`: half the widest blade and the beam's
+/// half width at the lens; half the divergence for a beam up to 15° steep, and the directions a
+/// gathered ray serves.
+const GATHER_MARGIN: (f64, f64) = (
+    0.006 + 0.5 * crate::blades::BEAM_WIDTH_M,
+    0.5 * crate::blades::BEAM_DIVERGENCE_RAD / 0.96 + GATHER_SHARE_RAD,
+);
+/// `cos(GATHER_SHARE_RAD)` (to 1e-11).
+const GATHER_SHARE_COS: f64 = 1.0 - 0.5 * GATHER_SHARE_RAD * GATHER_SHARE_RAD;
+/// ... and was gathered within this time (a blade sways 0.3 mm in 1 ms at most).
+const GATHER_SHARE_S: f64 = 0.001;
+/// Grass is gathered a metre at a time, as far as a beam gets.
+const GATHER_STEP_M: f64 = 1.0;
+
+/// Reusable buffers of the beam model, and the grass fields of the scene it casts in.
 #[derive(Debug, Default)]
 pub struct BeamCaster {
     events: Vec<Event>,
     echoes: Vec<Echo>,
+    /// Seed of the grass fields.
+    seed: u64,
+    /// The grass field of each object, built when a beam first crosses it.
+    fields: Vec<Option<BladeField>>,
+    gathered: Vec<Gathered>,
 }
 
 fn normal(rng: &mut fastrand::Rng) -> f64 {
@@ -118,14 +165,25 @@ fn normal(rng: &mut fastrand::Rng) -> f64 {
 }
 
 impl BeamCaster {
-    /// The echoes of the beam from `o` along unit `d`, considering the objects `candidates`
-    /// indexes into `scene.objects`. The slice is valid until the next call.
+    /// A caster whose grass fields are drawn from `seed`: the same seed, the same blades.
+    pub fn new(seed: u64) -> Self {
+        BeamCaster {
+            seed,
+            ..BeamCaster::default()
+        }
+    }
+
+    /// The echoes of the beam from `o` along unit `d` at `time_s` (s, for the grass's sway),
+    /// considering the objects `candidates` indexes into `scene.objects`. The slice is valid
+    /// until the next call. A caster serves one scene: its grass fields are built for it.
+    #[allow(clippy::too_many_arguments)]
     pub fn cast(
         &mut self,
         scene: &Scene,
         candidates: &[usize],
         o: [f64; 3],
         d: [f64; 3],
+        time_s: f64,
         params: &PhysicsParams,
         rng: &mut fastrand::Rng,
     ) -> &[Echo] {
@@ -164,6 +222,24 @@ impl BeamCaster {
                 Material::Foliage {
                     density,
                     reflectivity,
+                    blades: true,
+                } if params.grass_blades => {
+                    if density > 0.0 {
+                        self.blade_events(
+                            obj,
+                            i,
+                            (density, reflectivity),
+                            o,
+                            d,
+                            (t_in, t_out),
+                            time_s,
+                        );
+                    }
+                }
+                Material::Foliage {
+                    density,
+                    reflectivity,
+                    ..
                 } => {
                     if density <= 0.0 {
                         continue;
@@ -270,6 +346,102 @@ impl BeamCaster {
         &self.echoes
     }
 
+    /// Pushes the blades of grass object `i` the beam from `o` along `d` meets between `t_in`
+    /// and `t_out`, up to where less than [`MIN_FRACTION`] of it would be left.
+    #[allow(clippy::too_many_arguments)]
+    fn blade_events(
+        &mut self,
+        obj: &Object,
+        i: usize,
+        (density, reflectivity): (f64, f64),
+        o: [f64; 3],
+        d: [f64; 3],
+        (t_in, t_out): (f64, f64),
+        time_s: f64,
+    ) {
+        let c = d[0].hypot(d[1]);
+        if c < 1e-6 {
+            return;
+        }
+        let u = [d[0] / c, d[1] / c];
+        let o2 = [o[0], o[1]];
+        let (a_in, a_out) = (t_in * c, t_out * c);
+        if self.fields.len() <= i {
+            self.fields.resize_with(i + 1, || None);
+        }
+        let field = self.fields[i].get_or_insert_with(|| {
+            let (lo, hi) = shape_box(&obj.shape);
+            BladeField::new(
+                lo,
+                hi,
+                density,
+                self.seed ^ (i as u64).wrapping_mul(0x2545_F491),
+            )
+        });
+        // the gathered ray this beam can share, or a fresh one
+        let k = match self.gathered.iter().position(|g| g.obj == i) {
+            Some(k) => k,
+            None => {
+                self.gathered.push(Gathered {
+                    obj: i,
+                    a0: f64::INFINITY,
+                    ..Gathered::default()
+                });
+                self.gathered.len() - 1
+            }
+        };
+        let g = &mut self.gathered[k];
+        let shared = g.o == o2
+            && g.u[0] * u[0] + g.u[1] * u[1] >= GATHER_SHARE_COS
+            && g.a0 <= (a_in - 0.005).max(0.0)
+            && (time_s - g.time_s).abs() <= GATHER_SHARE_S;
+        if !shared {
+            g.o = o2;
+            g.u = u;
+            g.time_s = time_s;
+            g.a0 = (a_in - 0.01).max(0.0);
+            g.a1 = g.a0;
+            g.blades.clear();
+        }
+        let mut f = 1.0;
+        let mut next = 0;
+        loop {
+            while next < g.blades.len() {
+                let b = g.blades[next];
+                next += 1;
+                let (rx, ry) = (b.x - o[0], b.y - o[1]);
+                let t = (rx * u[0] + ry * u[1]) / c;
+                if t >= t_out + 0.01 {
+                    // sorted along the gathered ray, which differs from this one by less
+                    return;
+                }
+                if t <= t_in || t >= t_out {
+                    continue;
+                }
+                let perp = rx * u[1] - ry * u[0];
+                let intercept = blade_intercept(perp, b.w, beam_width(t));
+                if intercept <= 0.0 {
+                    continue;
+                }
+                self.events.push(Event::Blade {
+                    t,
+                    intercept,
+                    reflectivity,
+                });
+                f *= 1.0 - intercept;
+                if f < MIN_FRACTION {
+                    return;
+                }
+            }
+            if g.a1 >= a_out + 0.01 {
+                return;
+            }
+            let a1 = (g.a1 + GATHER_STEP_M).min(a_out + 0.01);
+            field.gather(o2, g.u, g.a1, a1, GATHER_MARGIN, time_s, &mut g.blades);
+            g.a1 = a1;
+        }
+    }
+
     /// Merges echoes closer than [`MERGE_M`] (the echoes are in walk order, nearest first up to
     /// the range jitter).
     fn merge(&mut self) {
@@ -295,6 +467,27 @@ impl BeamCaster {
         }
         self.echoes.truncate(out + 1);
     }
+}
+
+/// The horizontal bounding box of a shape.
+fn shape_box(shape: &Shape) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut add = |p: [f64; 2], r: f64| {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k] - r);
+            hi[k] = hi[k].max(p[k] + r);
+        }
+    };
+    match shape {
+        Shape::Sheet { a, b, .. } => {
+            add(*a, 0.0);
+            add(*b, 0.0);
+        }
+        Shape::Prism { poly, .. } => poly.iter().for_each(|p| add(*p, 0.0)),
+        Shape::Cylinder { c, r, .. } => add(*c, *r),
+    }
+    (lo, hi)
 }
 
 /// The two returns of a dual-return firing, as the sensor reports them: (last, strongest or

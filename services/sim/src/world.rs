@@ -344,10 +344,14 @@ pub enum Material {
     },
     /// A volume of blades or leaves.
     Foliage {
-        /// Hits per metre of beam path.
+        /// Hits per metre of beam path (for grass, 2 m from the sensor: see
+        /// [`crate::blades::areal_density`]).
         density: f64,
         /// Reflectivity of a blade.
         reflectivity: f64,
+        /// Grass: blades standing in the ground that neighbouring beams meet alike
+        /// ([`crate::blades`]). Otherwise (bushes) each beam draws its own leaves.
+        blades: bool,
     },
 }
 
@@ -728,6 +732,7 @@ impl WorldFile {
                 Material::Foliage {
                     density: g.density,
                     reflectivity: g.reflectivity,
+                    blades: true,
                 },
                 cell_class::PASSABLE,
                 false,
@@ -744,6 +749,7 @@ impl WorldFile {
                 Material::Foliage {
                     density: b.density,
                     reflectivity: b.reflectivity,
+                    blades: false,
                 },
                 cell_class::SOLID,
                 true,

@@ -349,3 +349,61 @@ fn ground_truth_marks_each_class_where_it_stands_in_the_robot_frame() {
         count(cell_class::GLASS)
     );
 }
+
+/// For the −1° laser looking through [`GRASS_THEN_WALL`] (azimuths within 25° of the wall's
+/// normal, two revolutions): the share of firings whose last return is the wall, and the
+/// correlation between consecutive firings' "reached the wall".
+fn wall_through_grass(grass_blades: bool) -> (f64, f64) {
+    let w = WorldFile::parse(GRASS_THEN_WALL, "test world").expect("valid world");
+    let mut settings = SimSettings::default();
+    settings.lidar.physics.grass_blades = grass_blades;
+    let mut s = Sim::new(w.compile(), settings, 5, DEFAULT_EPOCH_NS);
+    let mut reached = Vec::new();
+    for rev in revolutions(&mut s, 3).iter().skip(1) {
+        let mut run = Vec::new();
+        for p in &rev.points {
+            // laser 14 is the −1° one; BOTH or LAST is the firing's last return
+            if p.laser_id != 14 || p.return_type == return_type::STRONGEST {
+                continue;
+            }
+            if azimuth_deg(p).abs() < 25.0 {
+                run.push(p.distance_raw > 0 && f64::from(p.x) > 5.8);
+            }
+        }
+        reached.push(run);
+    }
+    let all: Vec<f64> = reached
+        .iter()
+        .flatten()
+        .map(|&r| f64::from(u8::from(r)))
+        .collect();
+    assert!(all.len() > 400, "{} firings", all.len());
+    let p = all.iter().sum::<f64>() / all.len() as f64;
+    let (mut both, mut pairs) = (0.0, 0.0);
+    for run in &reached {
+        for w in run.windows(2) {
+            both += f64::from(u8::from(w[0] && w[1]));
+            pairs += 1.0;
+        }
+    }
+    let corr = (both / pairs - p * p) / (p * (1.0 - p));
+    eprintln!(
+        "grass_blades {grass_blades}: {:.1} % reach the wall, neighbour correlation {corr:.2}",
+        100.0 * p
+    );
+    (p, corr)
+}
+
+#[test]
+fn grass_blades_shade_neighbouring_beams_alike() {
+    let (p_drawn, corr_drawn) = wall_through_grass(false);
+    let (p_blades, corr_blades) = wall_through_grass(true);
+    // the same grass for one beam: `density` keeps its meaning (hits per metre 2 m out)
+    assert!(
+        (0.1..0.9).contains(&p_drawn) && (p_blades - p_drawn).abs() < 0.35 * p_drawn,
+        "through 2 m of grass: {p_blades} with blades, {p_drawn} drawn per beam"
+    );
+    // blades drawn per beam are independent; blades in the ground shade neighbours together
+    assert!(corr_drawn.abs() < 0.15, "drawn per beam: {corr_drawn}");
+    assert!(corr_blades > 0.3, "blades in the ground: {corr_blades}");
+}
