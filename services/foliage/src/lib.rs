@@ -481,6 +481,21 @@ fn wrap(i: usize, d: isize, n: usize) -> usize {
     }
 }
 
+/// `if keep { x } else { 0.0 }` computed on the bits, so that it stays branch-free: the compiler
+/// turns a float select feeding a store into a branch, mispredicted where candidates and foliage
+/// interleave at random (grass).
+#[inline]
+fn keep_if(x: f32, keep: bool) -> f32 {
+    f32::from_bits(x.to_bits() & u32::from(keep).wrapping_neg())
+}
+
+/// `if cond { a } else { b }` on the bits (branch-free, see [`keep_if`]); exact for every value.
+#[inline]
+fn select(cond: bool, a: f32, b: f32) -> f32 {
+    let m = u32::from(cond).wrapping_neg();
+    f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
 // ---------------------------------------------------------------------------------------------
 // Temporal state
 // ---------------------------------------------------------------------------------------------
@@ -766,15 +781,21 @@ pub fn get_obst_candidates(
 ) -> usize {
     let n_w = low.v.len().min(low.nad2v.len());
     let ne = scan.len();
-    rc.clear();
-    rc.resize(ne, 0.0);
     t_k.clear();
-    for i in 0..n_w {
-        let t1 = history.t_prev1.get(i).copied().unwrap_or(0.0);
-        let t2 = history.t_prev2.get(i).copied().unwrap_or(0.0);
-        t_k.push(carry_threshold(params.k1, t1, t2));
+    let (t_prev1, t_prev2) = (&history.t_prev1, &history.t_prev2);
+    if t_prev1.len() >= n_w && t_prev2.len() >= n_w {
+        let carried = t_prev1[..n_w].iter().zip(&t_prev2[..n_w]);
+        t_k.extend(carried.map(|(&t1, &t2)| carry_threshold(params.k1, t1, t2)));
+    } else {
+        for i in 0..n_w {
+            let t1 = t_prev1.get(i).copied().unwrap_or(0.0);
+            let t2 = t_prev2.get(i).copied().unwrap_or(0.0);
+            t_k.push(carry_threshold(params.k1, t1, t2));
+        }
     }
+    rc.clear();
     if n_w == 0 {
+        rc.resize(ne, 0.0);
         return 0;
     }
     let WindowWork { ties, pass } = work;
@@ -782,12 +803,14 @@ pub fn get_obst_candidates(
     ties.resize(n_w, 0);
     pass.clear();
     pass.resize(n_w, false);
+    let v = &low.v[..n_w];
 
-    // Fast rejection (line 9): only non-zero returns at their window's maximum can qualify; count
-    // them per window (ties included). Consecutive returns mostly share a window, so the count of
-    // the current run stays in a register.
+    // Fast rejection (line 9): only non-zero returns at their window's maximum can qualify; `rc`
+    // keeps them for now, and they are counted per window (ties included). Consecutive returns
+    // mostly share a window, so the count of the current run stays in a register.
     let (mut cur_w, mut cur_n) = (usize::MAX, 0u32);
-    for (&range, &w) in scan.ranges[..ne].iter().zip(&scan.windows[..ne]) {
+    let maxima = scan.ranges[..ne].iter().zip(&scan.windows[..ne]);
+    rc.extend(maxima.map(|(&range, &w)| {
         let w = w as usize;
         if w != cur_w {
             if let Some(t) = ties.get_mut(cur_w) {
@@ -795,9 +818,10 @@ pub fn get_obst_candidates(
             }
             (cur_w, cur_n) = (w, 0);
         }
-        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
-        cur_n += u32::from(range > 0.0 && range == v);
-    }
+        let at_max = range > 0.0 && range == v.get(w).copied().unwrap_or(f32::NAN);
+        cur_n += u32::from(at_max);
+        keep_if(range, at_max)
+    }));
     if let Some(t) = ties.get_mut(cur_w) {
         *t += cur_n;
     }
@@ -824,13 +848,11 @@ pub fn get_obst_candidates(
             }
             for d in [-1, 0, 1] {
                 let i = wrap(j, d, n_w);
-                if pass[i] || ties[i] == 0 {
-                    continue;
-                }
                 let c1 = history.c_prev1.get(i).copied().unwrap_or(0.0);
                 let c2 = history.c_prev2.get(i).copied().unwrap_or(0.0);
-                let v = low.v[i];
-                pass[i] = (v - held).abs() < relax_tolerance(params, v, c1, c2);
+                let near = (v[i] - held).abs() < relax_tolerance(params, v[i], c1, c2);
+                // (branch-free: whether a neighbour already passes is not predictable)
+                pass[i] |= (ties[i] > 0) & near;
             }
         }
     }
@@ -845,18 +867,12 @@ pub fn get_obst_candidates(
         }
     }
 
+    // R_c: the maxima of the windows that pass (branch-free: they interleave at random in grass)
     let mut count = 0;
-    for ((slot, &range), &w) in rc
-        .iter_mut()
-        .zip(&scan.ranges[..ne])
-        .zip(&scan.windows[..ne])
-    {
-        let w = w as usize;
-        let ok = pass.get(w).copied().unwrap_or(false);
-        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
-        let is_candidate = ok & (range > 0.0) & (range == v);
-        *slot = if is_candidate { range } else { 0.0 };
-        count += usize::from(is_candidate);
+    for (slot, &w) in rc.iter_mut().zip(&scan.windows[..ne]) {
+        let ok = pass.get(w as usize).copied().unwrap_or(false);
+        count += usize::from(ok & (*slot > 0.0));
+        *slot = keep_if(*slot, ok);
     }
     count
 }
