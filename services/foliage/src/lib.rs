@@ -894,10 +894,23 @@ pub fn relax_tolerance(params: &FoliageParams, range: f32, c_prev1: f32, c_prev2
 pub struct RelaxWork {
     stack: Vec<u32>,
     can_join: Vec<u8>,
+    tol: Vec<f32>,
 }
 
 /// Neighbour offsets of `RELAX-OBST`; bit `k` of a return's `can_join` mask is offset `OFFSETS[k]`.
 const OFFSETS: [isize; 4] = [-2, -1, 1, 2];
+
+/// The `can_join` mask of [`relax_obst`]: bit `k` set when `|range − near[k]| < tol` (0 for a
+/// NaN `tol`).
+#[inline(always)]
+fn can_join_mask(range: f32, tol: f32, near: [f32; 4]) -> u8 {
+    let mut m = 0u8;
+    for (k, n) in near.into_iter().enumerate() {
+        // Interpretation (5): strict comparison, tolerance of the joining return r.
+        m |= u8::from((range - n).abs() < tol) << k;
+    }
+    m
+}
 
 /// `RELAX-OBST(A, R, R_c)` (paper §4.3): a non-candidate return `r` with a range becomes a candidate
 /// when one of its neighbours `r±1`, `r±2` (slice order, wrapped) is a candidate and
@@ -918,7 +931,11 @@ pub fn relax_obst(
     work: &mut RelaxWork,
 ) -> usize {
     let ne = scan.len().min(rc.len());
-    let RelaxWork { stack, can_join } = work;
+    let RelaxWork {
+        stack,
+        can_join,
+        tol,
+    } = work;
     stack.clear();
     can_join.clear();
     if ne == 0 {
@@ -928,28 +945,42 @@ pub fn relax_obst(
     let n_h = history.n_windows();
     let (c_prev1, c_prev2) = (&history.c_prev1[..n_h], &history.c_prev2[..n_h]);
 
+    // The tolerance of each return as the joining one (interpretation 5); NaN, which compares
+    // below nothing, for a return without range or window (it never joins).
+    tol.clear();
+    tol.extend(ranges.iter().zip(windows).map(|(&range, &w)| {
+        let (c1, c2) = match (c_prev1.get(w as usize), c_prev2.get(w as usize)) {
+            (Some(&c1), Some(&c2)) => (c1, c2),
+            _ => (0.0, 0.0),
+        };
+        let valid = (range > 0.0) & (w != NO_BIN);
+        select(valid, relax_tolerance(params, range, c1, c2), f32::NAN)
+    }));
     // can_join[r] bit k: r, if it has a range, would join a candidate at r + OFFSETS[k].
     can_join.resize(ne, 0);
-    for (r, mask) in can_join.iter_mut().enumerate() {
-        let (range, w) = (ranges[r], windows[r] as usize);
-        let (c1, c2) = if w < n_h {
-            (c_prev1[w], c_prev2[w])
-        } else {
-            (0.0, 0.0)
-        };
-        let tol = relax_tolerance(params, range, c1, c2);
-        let valid = (range > 0.0) & (windows[r] != NO_BIN);
-        let mut m = 0u8;
-        for (k, d) in OFFSETS.into_iter().enumerate() {
-            let n = if r >= 2 && r + 2 < ne {
-                (r as isize + d) as usize
-            } else {
-                wrap(r, d, ne)
-            };
-            // Interpretation (5): strict comparison, tolerance of the joining return r.
-            m |= u8::from((range - ranges[n]).abs() < tol) << k;
+    if ne >= 5 {
+        // Away from the ends of the slice the neighbours need no wrapping: five shifted slices
+        // in step, which the compiler vectorises.
+        let m = ne - 4;
+        let near = (
+            &ranges[..m],
+            &ranges[1..m + 1],
+            &ranges[3..m + 3],
+            &ranges[4..],
+        );
+        let inner = can_join[2..m + 2]
+            .iter_mut()
+            .zip(&ranges[2..m + 2])
+            .zip(&tol[2..m + 2])
+            .zip(near.0.iter().zip(near.1).zip(near.2.iter().zip(near.3)));
+        for (((mask, &range), &t), ((&a, &b), (&c, &d))) in inner {
+            *mask = can_join_mask(range, t, [a, b, c, d]);
         }
-        *mask = if valid { m } else { 0 };
+    }
+    let ends = (0..ne.min(2)).chain(ne.saturating_sub(2).max(ne.min(2))..ne);
+    for r in ends {
+        let near = OFFSETS.map(|d| ranges[wrap(r, d, ne)]);
+        can_join[r] = can_join_mask(ranges[r], tol[r], near);
     }
 
     // The worklist is a stack of exactly Ne slots: a return is pushed at most once, so `top` never
@@ -975,9 +1006,8 @@ pub fn relax_obst(
         for r in 0..ne {
             let (was, m) = (rc[r] > 0.0, can_join[r]);
             let join = !was & ((p1 & bit(m, 1)) | (p2 & bit(m, 0)));
-            if join {
-                rc[r] = ranges[r];
-            }
+            // (branch-free: joins and foliage interleave at random in grass)
+            rc[r] = select(join, ranges[r], rc[r]);
             added += usize::from(join);
             (p2, p1) = (p1, was | join);
         }
@@ -989,9 +1019,7 @@ pub fn relax_obst(
         for r in (0..ne).rev() {
             let (was, m) = (rc[r] > 0.0, can_join[r]);
             let join = !was & ((n1 & bit(m, 2)) | (n2 & bit(m, 3)));
-            if join {
-                rc[r] = ranges[r];
-            }
+            rc[r] = select(join, ranges[r], rc[r]);
             added += usize::from(join);
             if let Some(slot) = stack.get_mut(top) {
                 *slot = r as u32;
@@ -1011,9 +1039,7 @@ pub fn relax_obst(
             };
             // r sees c at offset -d, i.e. bit 3 - k of its mask.
             let join = (rc[r] == 0.0) & bit(can_join[r], 3 - k);
-            if join {
-                rc[r] = ranges[r];
-            }
+            rc[r] = select(join, ranges[r], rc[r]);
             if let Some(slot) = stack.get_mut(top) {
                 *slot = r as u32;
             }
