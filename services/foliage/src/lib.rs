@@ -709,14 +709,12 @@ fn fill_notches_in(params: &FoliageParams, v: &mut [f32]) -> usize {
             _ => second,
         };
         let floor = prev.min(next);
-        if floor > cur {
-            let tol = relax_tolerance(params, floor, 0.0, 0.0);
-            let agree = |a: f32, b: f32| (a - b).abs() < tol;
-            if agree(prev, next) && agree(prev2, prev) && agree(next, next2) {
-                v[i] = floor;
-                filled += 1;
-            }
-        }
+        // (branch-free: in grass, notches come and go at random)
+        let tol = relax_tolerance(params, floor, 0.0, 0.0);
+        let agree = |a: f32, b: f32| (a - b).abs() < tol;
+        let fill = (floor > cur) & agree(prev, next) & agree(prev2, prev) & agree(next, next2);
+        v[i] = select(fill, floor, cur);
+        filled += usize::from(fill);
         (prev2, prev, cur, next) = (prev, cur, next, next2);
     }
     filled
@@ -1130,6 +1128,64 @@ pub fn crop_range(rf: &mut [f32], d_min: f32, d_max: f32) -> usize {
     dropped
 }
 
+/// [`History::seen_near`] for every window `0 … N_w-1` into `seen` (a rolling OR over the five
+/// windows), so that [`Classifier::classify`]'s `REMOVE-NEW-OBST` looks the answer up per return.
+fn seen_near_windows(history: &History, seen: &mut Vec<bool>) {
+    let n = history.n_windows();
+    seen.clear();
+    if n == 0 {
+        return;
+    }
+    // Interpretation (6): "seen" = non-zero C_{k-1} or C_{k-2} in windows i-2..=i+2.
+    let nz = |j: usize| (history.c_prev1[j] > 0.0) | (history.c_prev2[j] > 0.0);
+    let mut near = [-2, -1, 0, 1, 2].map(|d| nz(wrap(0, d, n)));
+    seen.extend((0..n).map(|i| {
+        let any = near.iter().fold(false, |a, &b| a | b);
+        near = [near[1], near[2], near[3], near[4], nz(wrap(i, 3, n))];
+        any
+    }));
+}
+
+/// `REMOVE-THIN-OBST` then `CROP-RANGE` in one pass for [`Classifier::classify`]: `rf` from
+/// `new`, the output of `REMOVE-NEW-OBST` (`0` or a positive range per return), with the results
+/// of [`remove_thin_obst`] and [`crop_range`] run in that order (interpretations 7, 8, 12).
+fn thin_and_crop(params: &FoliageParams, new: &[f32], rf: &mut Vec<f32>) {
+    let ne = new.len();
+    rf.clear();
+    rf.resize(ne, 0.0);
+    if ne == 0 {
+        return;
+    }
+    let (o_s, d_min, d_max) = (params.thin_min, params.d_min_m, params.d_max_m);
+    let is = |x: f32| usize::from(x > 0.0);
+    // A return of `new` is 0 or a positive range: it survives both routines when the count of
+    // obstacles around it reaches O_s and it lies within [d_min, d_max]; 0 stays 0.
+    let keep = |x: f32, count: usize| keep_if(x, (count >= o_s) & (x >= d_min) & (x <= d_max));
+    let d = params.thin_window / 2;
+    if 2 * d + 1 >= ne {
+        // the whole scan is the window
+        let total: usize = new.iter().map(|&x| is(x)).sum();
+        for (f, &x) in rf.iter_mut().zip(new) {
+            *f = keep(x, total);
+        }
+        return;
+    }
+    let mut count: usize = (0..=2 * d)
+        .map(|k| is(new[wrap(0, k as isize - d as isize, ne)]))
+        .sum();
+    for (r, f) in rf.iter_mut().enumerate() {
+        *f = keep(new[r], count);
+        // Slide the window from r to r+1 (wrapped; d < ne / 2).
+        let leaving = if r >= d { r - d } else { r + ne - d };
+        let entering = if r + d + 1 < ne {
+            r + d + 1
+        } else {
+            r + d + 1 - ne
+        };
+        count = count - is(new[leaving]) + is(new[entering]);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // UPDATE-AND-ARCHIVE
 // ---------------------------------------------------------------------------------------------
@@ -1288,6 +1344,7 @@ pub struct Classifier {
     rc: Vec<f32>,
     rf: Vec<f32>,
     thin_copy: Vec<f32>,
+    seen: Vec<bool>,
     relax_work: RelaxWork,
     classes: Vec<u8>,
     nearest: Vec<f32>,
@@ -1317,6 +1374,7 @@ impl Classifier {
             rc: Vec::new(),
             rf: Vec::new(),
             thin_copy: Vec::new(),
+            seen: Vec::with_capacity(n_w),
             relax_work: RelaxWork::default(),
             classes: Vec::new(),
             nearest: vec![f32::INFINITY; n_s],
@@ -1364,10 +1422,22 @@ impl Classifier {
         );
         self.history.archive_thresholds(&mut self.t_k);
         relax_obst(&p, scan, &self.history, &mut self.rc, &mut self.relax_work);
-        // Interpretation (12): the paper's pruning order, REMOVE-NEW → REMOVE-THIN → CROP-RANGE.
-        remove_new_obst(scan, &self.history, &self.rc, &mut self.rf);
-        remove_thin_obst(&mut self.rf, p.thin_window, p.thin_min, &mut self.thin_copy);
-        crop_range(&mut self.rf, p.d_min_m, p.d_max_m);
+        // Interpretation (12): the paper's pruning order, REMOVE-NEW → REMOVE-THIN → CROP-RANGE;
+        // REMOVE-NEW-OBST writes the copy that REMOVE-THIN-OBST reads.
+        seen_near_windows(&self.history, &mut self.seen);
+        let new = &mut self.thin_copy;
+        new.clear();
+        new.extend(
+            self.rc[..ne]
+                .iter()
+                .zip(&self.windows[..ne])
+                .map(|(&c, &w)| {
+                    // Interpretation (6), with the windows' answers made beforehand (branch-free).
+                    let seen = self.seen.get(w as usize).copied().unwrap_or(false);
+                    keep_if(c, (c > 0.0) & seen)
+                }),
+        );
+        thin_and_crop(&p, new, &mut self.rf);
         let alarm = update_and_archive(
             &p,
             scan,
@@ -1380,11 +1450,11 @@ impl Classifier {
 
         self.classes.clear();
         let (mut obstacles, mut candidates) = (0, 0);
-        for ((&f, &cand), &range) in self.rf[..ne]
+        let per_return = self.rf[..ne]
             .iter()
             .zip(&self.rc[..ne])
-            .zip(&self.ranges[..ne])
-        {
+            .zip(&self.ranges[..ne]);
+        self.classes.extend(per_return.map(|((&f, &cand), &range)| {
             // (Branch-free: the classes interleave at random.) R_f ⊆ R_c ⊆ {R > 0}.
             let (is_obstacle, is_candidate) = (f > 0.0, cand > 0.0);
             obstacles += usize::from(is_obstacle);
@@ -1395,9 +1465,8 @@ impl Classifier {
                 class::NO_RETURN
             };
             c = if is_candidate { class::PRUNED } else { c };
-            c = if is_obstacle { class::OBSTACLE } else { c };
-            self.classes.push(c);
-        }
+            if is_obstacle { class::OBSTACLE } else { c }
+        }));
         Verdict {
             alarm,
             nearest_per_sector: &self.nearest,
