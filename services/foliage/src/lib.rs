@@ -446,20 +446,32 @@ pub fn prepare_scan(
     windows_out.resize(n, NO_BIN);
     sectors_out.clear();
     sectors_out.resize(n, NO_BIN);
+    // the checks of `bin_with_inverse` that do not depend on the angle, made once
+    let usable = |inv: f32, n_bins: usize| n_bins > 0 && inv.is_finite() && inv > 0.0;
+    if !(usable(inv_w, n_w) && usable(inv_s, n_s)) {
+        return; // no bins: every return is "no return"
+    }
+    // Bin counts come from `bin_count` (at most 10⁹), so the bins fit in u32 and the saturating
+    // `as u32` followed by the `min` gives the same bin as `bin_with_inverse`'s `as usize`.
+    let (last_w, last_s) = ((n_w - 1) as u32, (n_s - 1) as u32);
     let outs = ranges_out
         .iter_mut()
         .zip(windows_out.iter_mut())
         .zip(sectors_out.iter_mut());
     for ((&a, &r), ((ro, wo), so)) in angles[..n].iter().zip(&ranges[..n]).zip(outs) {
         // Interpretation (13): a non-finite angle or range, or a range ≤ 0, is "no return".
-        if let (Some(w), Some(s)) = (
-            bin_with_inverse(a, inv_w, n_w),
-            bin_with_inverse(a, inv_s, n_s),
-        ) {
-            *ro = sanitize_range(r);
-            *wo = w;
-            *so = s;
+        if !a.is_finite() {
+            continue;
         }
+        // `bin_with_inverse` for both bin widths, sharing the wrapped angle
+        let mut t = a + PI;
+        if !(0.0..TAU).contains(&t) {
+            // Rare: only angles outside [-π, π) need the (slow, libm) remainder.
+            t = t.rem_euclid(TAU);
+        }
+        *ro = keep_if(r, r.is_finite() & (r > 0.0)); // `sanitize_range`, branch-free
+        *wo = ((t * inv_w) as u32).min(last_w);
+        *so = ((t * inv_s) as u32).min(last_s);
     }
 }
 
