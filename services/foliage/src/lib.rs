@@ -1210,25 +1210,24 @@ fn thin_and_crop(params: &FoliageParams, new: &[f32], rf: &mut Vec<f32>) {
 ///   a ceiling, so the evidence reaches 0 after a finite number of scans);
 /// * never below 0.
 pub fn evidence_step(c_k: f32, c_prev1: f32) -> f32 {
-    if c_k == 0.0 && c_prev1 == 0.0 {
-        // most windows, most scans: no evidence now or before (and no rounding call)
-        return 0.0;
-    }
+    // (Branch-free: windows with and without evidence alternate along the circle. With no
+    // evidence now or before, both branches give 0.)
     let learn = c_k + c_prev1;
     // Interpretation (10): the bracket of line 16 is a ceiling, so old evidence expires.
-    let forget = c_prev1 - ceil_non_negative((c_k + c_prev1) / 2.0);
-    let forget = if forget > 0.0 { forget } else { 0.0 };
-    if c_k > c_prev1 { learn } else { forget }
+    let forget = c_prev1 - ceil_exact((c_k + c_prev1) / 2.0);
+    let forget = select(forget > 0.0, forget, 0.0);
+    select(c_k > c_prev1, learn, forget)
 }
 
-/// `x.ceil()` without the libm call for `0 ≤ x < 2²³` (evidence values); other inputs use `ceil`.
+/// `x.ceil()` without the libm call and without a branch (a call the compiler may not skip
+/// would run for every window): exact for every `f32`. From `2²³` up every `f32` is an integer,
+/// so only smaller magnitudes are rounded; NaN and ±∞ are returned as they are.
 #[inline]
-fn ceil_non_negative(x: f32) -> f32 {
-    if !(0.0..8_388_608.0).contains(&x) {
-        return x.ceil();
-    }
-    let t = (x as u32) as f32; // truncation of a non-negative value
-    if t < x { t + 1.0 } else { t }
+fn ceil_exact(x: f32) -> f32 {
+    let t = (x as i32) as f32; // truncation towards 0 (exact for |x| < 2²³)
+    // t + 1 above a positive fraction; the sign of x kept, so that ceil(-0.5) is -0
+    let c = (t + f32::from(u8::from(t < x))).copysign(x);
+    select(x.abs() < 8_388_608.0, c, x)
 }
 
 /// `UPDATE-AND-ARCHIVE(A, R_c)` (paper §6).
