@@ -446,20 +446,32 @@ pub fn prepare_scan(
     windows_out.resize(n, NO_BIN);
     sectors_out.clear();
     sectors_out.resize(n, NO_BIN);
+    // the checks of `bin_with_inverse` that do not depend on the angle, made once
+    let usable = |inv: f32, n_bins: usize| n_bins > 0 && inv.is_finite() && inv > 0.0;
+    if !(usable(inv_w, n_w) && usable(inv_s, n_s)) {
+        return; // no bins: every return is "no return"
+    }
+    // Bin counts come from `bin_count` (at most 10⁹), so the bins fit in u32 and the saturating
+    // `as u32` followed by the `min` gives the same bin as `bin_with_inverse`'s `as usize`.
+    let (last_w, last_s) = ((n_w - 1) as u32, (n_s - 1) as u32);
     let outs = ranges_out
         .iter_mut()
         .zip(windows_out.iter_mut())
         .zip(sectors_out.iter_mut());
     for ((&a, &r), ((ro, wo), so)) in angles[..n].iter().zip(&ranges[..n]).zip(outs) {
         // Interpretation (13): a non-finite angle or range, or a range ≤ 0, is "no return".
-        if let (Some(w), Some(s)) = (
-            bin_with_inverse(a, inv_w, n_w),
-            bin_with_inverse(a, inv_s, n_s),
-        ) {
-            *ro = sanitize_range(r);
-            *wo = w;
-            *so = s;
+        if !a.is_finite() {
+            continue;
         }
+        // `bin_with_inverse` for both bin widths, sharing the wrapped angle
+        let mut t = a + PI;
+        if !(0.0..TAU).contains(&t) {
+            // Rare: only angles outside [-π, π) need the (slow, libm) remainder.
+            t = t.rem_euclid(TAU);
+        }
+        *ro = keep_if(r, r.is_finite() & (r > 0.0)); // `sanitize_range`, branch-free
+        *wo = ((t * inv_w) as u32).min(last_w);
+        *so = ((t * inv_s) as u32).min(last_s);
     }
 }
 
@@ -479,6 +491,21 @@ fn wrap(i: usize, d: isize, n: usize) -> usize {
     } else {
         j.rem_euclid(n) as usize
     }
+}
+
+/// `if keep { x } else { 0.0 }` computed on the bits, so that it stays branch-free: the compiler
+/// turns a float select feeding a store into a branch, mispredicted where candidates and foliage
+/// interleave at random (grass).
+#[inline]
+fn keep_if(x: f32, keep: bool) -> f32 {
+    f32::from_bits(x.to_bits() & u32::from(keep).wrapping_neg())
+}
+
+/// `if cond { a } else { b }` on the bits (branch-free, see [`keep_if`]); exact for every value.
+#[inline]
+fn select(cond: bool, a: f32, b: f32) -> f32 {
+    let m = u32::from(cond).wrapping_neg();
+    f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -694,14 +721,12 @@ fn fill_notches_in(params: &FoliageParams, v: &mut [f32]) -> usize {
             _ => second,
         };
         let floor = prev.min(next);
-        if floor > cur {
-            let tol = relax_tolerance(params, floor, 0.0, 0.0);
-            let agree = |a: f32, b: f32| (a - b).abs() < tol;
-            if agree(prev, next) && agree(prev2, prev) && agree(next, next2) {
-                v[i] = floor;
-                filled += 1;
-            }
-        }
+        // (branch-free: in grass, notches come and go at random)
+        let tol = relax_tolerance(params, floor, 0.0, 0.0);
+        let agree = |a: f32, b: f32| (a - b).abs() < tol;
+        let fill = (floor > cur) & agree(prev, next) & agree(prev2, prev) & agree(next, next2);
+        v[i] = select(fill, floor, cur);
+        filled += usize::from(fill);
         (prev2, prev, cur, next) = (prev, cur, next, next2);
     }
     filled
@@ -766,15 +791,21 @@ pub fn get_obst_candidates(
 ) -> usize {
     let n_w = low.v.len().min(low.nad2v.len());
     let ne = scan.len();
-    rc.clear();
-    rc.resize(ne, 0.0);
     t_k.clear();
-    for i in 0..n_w {
-        let t1 = history.t_prev1.get(i).copied().unwrap_or(0.0);
-        let t2 = history.t_prev2.get(i).copied().unwrap_or(0.0);
-        t_k.push(carry_threshold(params.k1, t1, t2));
+    let (t_prev1, t_prev2) = (&history.t_prev1, &history.t_prev2);
+    if t_prev1.len() >= n_w && t_prev2.len() >= n_w {
+        let carried = t_prev1[..n_w].iter().zip(&t_prev2[..n_w]);
+        t_k.extend(carried.map(|(&t1, &t2)| carry_threshold(params.k1, t1, t2)));
+    } else {
+        for i in 0..n_w {
+            let t1 = t_prev1.get(i).copied().unwrap_or(0.0);
+            let t2 = t_prev2.get(i).copied().unwrap_or(0.0);
+            t_k.push(carry_threshold(params.k1, t1, t2));
+        }
     }
+    rc.clear();
     if n_w == 0 {
+        rc.resize(ne, 0.0);
         return 0;
     }
     let WindowWork { ties, pass } = work;
@@ -782,12 +813,14 @@ pub fn get_obst_candidates(
     ties.resize(n_w, 0);
     pass.clear();
     pass.resize(n_w, false);
+    let v = &low.v[..n_w];
 
-    // Fast rejection (line 9): only non-zero returns at their window's maximum can qualify; count
-    // them per window (ties included). Consecutive returns mostly share a window, so the count of
-    // the current run stays in a register.
+    // Fast rejection (line 9): only non-zero returns at their window's maximum can qualify; `rc`
+    // keeps them for now, and they are counted per window (ties included). Consecutive returns
+    // mostly share a window, so the count of the current run stays in a register.
     let (mut cur_w, mut cur_n) = (usize::MAX, 0u32);
-    for (&range, &w) in scan.ranges[..ne].iter().zip(&scan.windows[..ne]) {
+    let maxima = scan.ranges[..ne].iter().zip(&scan.windows[..ne]);
+    rc.extend(maxima.map(|(&range, &w)| {
         let w = w as usize;
         if w != cur_w {
             if let Some(t) = ties.get_mut(cur_w) {
@@ -795,9 +828,10 @@ pub fn get_obst_candidates(
             }
             (cur_w, cur_n) = (w, 0);
         }
-        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
-        cur_n += u32::from(range > 0.0 && range == v);
-    }
+        let at_max = range > 0.0 && range == v.get(w).copied().unwrap_or(f32::NAN);
+        cur_n += u32::from(at_max);
+        keep_if(range, at_max)
+    }));
     if let Some(t) = ties.get_mut(cur_w) {
         *t += cur_n;
     }
@@ -824,13 +858,11 @@ pub fn get_obst_candidates(
             }
             for d in [-1, 0, 1] {
                 let i = wrap(j, d, n_w);
-                if pass[i] || ties[i] == 0 {
-                    continue;
-                }
                 let c1 = history.c_prev1.get(i).copied().unwrap_or(0.0);
                 let c2 = history.c_prev2.get(i).copied().unwrap_or(0.0);
-                let v = low.v[i];
-                pass[i] = (v - held).abs() < relax_tolerance(params, v, c1, c2);
+                let near = (v[i] - held).abs() < relax_tolerance(params, v[i], c1, c2);
+                // (branch-free: whether a neighbour already passes is not predictable)
+                pass[i] |= (ties[i] > 0) & near;
             }
         }
     }
@@ -845,18 +877,12 @@ pub fn get_obst_candidates(
         }
     }
 
+    // R_c: the maxima of the windows that pass (branch-free: they interleave at random in grass)
     let mut count = 0;
-    for ((slot, &range), &w) in rc
-        .iter_mut()
-        .zip(&scan.ranges[..ne])
-        .zip(&scan.windows[..ne])
-    {
-        let w = w as usize;
-        let ok = pass.get(w).copied().unwrap_or(false);
-        let v = low.v.get(w).copied().unwrap_or(f32::NAN);
-        let is_candidate = ok & (range > 0.0) & (range == v);
-        *slot = if is_candidate { range } else { 0.0 };
-        count += usize::from(is_candidate);
+    for (slot, &w) in rc.iter_mut().zip(&scan.windows[..ne]) {
+        let ok = pass.get(w as usize).copied().unwrap_or(false);
+        count += usize::from(ok & (*slot > 0.0));
+        *slot = keep_if(*slot, ok);
     }
     count
 }
@@ -878,10 +904,23 @@ pub fn relax_tolerance(params: &FoliageParams, range: f32, c_prev1: f32, c_prev2
 pub struct RelaxWork {
     stack: Vec<u32>,
     can_join: Vec<u8>,
+    tol: Vec<f32>,
 }
 
 /// Neighbour offsets of `RELAX-OBST`; bit `k` of a return's `can_join` mask is offset `OFFSETS[k]`.
 const OFFSETS: [isize; 4] = [-2, -1, 1, 2];
+
+/// The `can_join` mask of [`relax_obst`]: bit `k` set when `|range − near[k]| < tol` (0 for a
+/// NaN `tol`).
+#[inline(always)]
+fn can_join_mask(range: f32, tol: f32, near: [f32; 4]) -> u8 {
+    let mut m = 0u8;
+    for (k, n) in near.into_iter().enumerate() {
+        // Interpretation (5): strict comparison, tolerance of the joining return r.
+        m |= u8::from((range - n).abs() < tol) << k;
+    }
+    m
+}
 
 /// `RELAX-OBST(A, R, R_c)` (paper §4.3): a non-candidate return `r` with a range becomes a candidate
 /// when one of its neighbours `r±1`, `r±2` (slice order, wrapped) is a candidate and
@@ -902,7 +941,11 @@ pub fn relax_obst(
     work: &mut RelaxWork,
 ) -> usize {
     let ne = scan.len().min(rc.len());
-    let RelaxWork { stack, can_join } = work;
+    let RelaxWork {
+        stack,
+        can_join,
+        tol,
+    } = work;
     stack.clear();
     can_join.clear();
     if ne == 0 {
@@ -912,28 +955,42 @@ pub fn relax_obst(
     let n_h = history.n_windows();
     let (c_prev1, c_prev2) = (&history.c_prev1[..n_h], &history.c_prev2[..n_h]);
 
+    // The tolerance of each return as the joining one (interpretation 5); NaN, which compares
+    // below nothing, for a return without range or window (it never joins).
+    tol.clear();
+    tol.extend(ranges.iter().zip(windows).map(|(&range, &w)| {
+        let (c1, c2) = match (c_prev1.get(w as usize), c_prev2.get(w as usize)) {
+            (Some(&c1), Some(&c2)) => (c1, c2),
+            _ => (0.0, 0.0),
+        };
+        let valid = (range > 0.0) & (w != NO_BIN);
+        select(valid, relax_tolerance(params, range, c1, c2), f32::NAN)
+    }));
     // can_join[r] bit k: r, if it has a range, would join a candidate at r + OFFSETS[k].
     can_join.resize(ne, 0);
-    for (r, mask) in can_join.iter_mut().enumerate() {
-        let (range, w) = (ranges[r], windows[r] as usize);
-        let (c1, c2) = if w < n_h {
-            (c_prev1[w], c_prev2[w])
-        } else {
-            (0.0, 0.0)
-        };
-        let tol = relax_tolerance(params, range, c1, c2);
-        let valid = (range > 0.0) & (windows[r] != NO_BIN);
-        let mut m = 0u8;
-        for (k, d) in OFFSETS.into_iter().enumerate() {
-            let n = if r >= 2 && r + 2 < ne {
-                (r as isize + d) as usize
-            } else {
-                wrap(r, d, ne)
-            };
-            // Interpretation (5): strict comparison, tolerance of the joining return r.
-            m |= u8::from((range - ranges[n]).abs() < tol) << k;
+    if ne >= 5 {
+        // Away from the ends of the slice the neighbours need no wrapping: five shifted slices
+        // in step, which the compiler vectorises.
+        let m = ne - 4;
+        let near = (
+            &ranges[..m],
+            &ranges[1..m + 1],
+            &ranges[3..m + 3],
+            &ranges[4..],
+        );
+        let inner = can_join[2..m + 2]
+            .iter_mut()
+            .zip(&ranges[2..m + 2])
+            .zip(&tol[2..m + 2])
+            .zip(near.0.iter().zip(near.1).zip(near.2.iter().zip(near.3)));
+        for (((mask, &range), &t), ((&a, &b), (&c, &d))) in inner {
+            *mask = can_join_mask(range, t, [a, b, c, d]);
         }
-        *mask = if valid { m } else { 0 };
+    }
+    let ends = (0..ne.min(2)).chain(ne.saturating_sub(2).max(ne.min(2))..ne);
+    for r in ends {
+        let near = OFFSETS.map(|d| ranges[wrap(r, d, ne)]);
+        can_join[r] = can_join_mask(ranges[r], tol[r], near);
     }
 
     // The worklist is a stack of exactly Ne slots: a return is pushed at most once, so `top` never
@@ -959,9 +1016,8 @@ pub fn relax_obst(
         for r in 0..ne {
             let (was, m) = (rc[r] > 0.0, can_join[r]);
             let join = !was & ((p1 & bit(m, 1)) | (p2 & bit(m, 0)));
-            if join {
-                rc[r] = ranges[r];
-            }
+            // (branch-free: joins and foliage interleave at random in grass)
+            rc[r] = select(join, ranges[r], rc[r]);
             added += usize::from(join);
             (p2, p1) = (p1, was | join);
         }
@@ -973,9 +1029,7 @@ pub fn relax_obst(
         for r in (0..ne).rev() {
             let (was, m) = (rc[r] > 0.0, can_join[r]);
             let join = !was & ((n1 & bit(m, 2)) | (n2 & bit(m, 3)));
-            if join {
-                rc[r] = ranges[r];
-            }
+            rc[r] = select(join, ranges[r], rc[r]);
             added += usize::from(join);
             if let Some(slot) = stack.get_mut(top) {
                 *slot = r as u32;
@@ -995,9 +1049,7 @@ pub fn relax_obst(
             };
             // r sees c at offset -d, i.e. bit 3 - k of its mask.
             let join = (rc[r] == 0.0) & bit(can_join[r], 3 - k);
-            if join {
-                rc[r] = ranges[r];
-            }
+            rc[r] = select(join, ranges[r], rc[r]);
             if let Some(slot) = stack.get_mut(top) {
                 *slot = r as u32;
             }
@@ -1088,6 +1140,64 @@ pub fn crop_range(rf: &mut [f32], d_min: f32, d_max: f32) -> usize {
     dropped
 }
 
+/// [`History::seen_near`] for every window `0 … N_w-1` into `seen` (a rolling OR over the five
+/// windows), so that [`Classifier::classify`]'s `REMOVE-NEW-OBST` looks the answer up per return.
+fn seen_near_windows(history: &History, seen: &mut Vec<bool>) {
+    let n = history.n_windows();
+    seen.clear();
+    if n == 0 {
+        return;
+    }
+    // Interpretation (6): "seen" = non-zero C_{k-1} or C_{k-2} in windows i-2..=i+2.
+    let nz = |j: usize| (history.c_prev1[j] > 0.0) | (history.c_prev2[j] > 0.0);
+    let mut near = [-2, -1, 0, 1, 2].map(|d| nz(wrap(0, d, n)));
+    seen.extend((0..n).map(|i| {
+        let any = near.iter().fold(false, |a, &b| a | b);
+        near = [near[1], near[2], near[3], near[4], nz(wrap(i, 3, n))];
+        any
+    }));
+}
+
+/// `REMOVE-THIN-OBST` then `CROP-RANGE` in one pass for [`Classifier::classify`]: `rf` from
+/// `new`, the output of `REMOVE-NEW-OBST` (`0` or a positive range per return), with the results
+/// of [`remove_thin_obst`] and [`crop_range`] run in that order (interpretations 7, 8, 12).
+fn thin_and_crop(params: &FoliageParams, new: &[f32], rf: &mut Vec<f32>) {
+    let ne = new.len();
+    rf.clear();
+    rf.resize(ne, 0.0);
+    if ne == 0 {
+        return;
+    }
+    let (o_s, d_min, d_max) = (params.thin_min, params.d_min_m, params.d_max_m);
+    let is = |x: f32| usize::from(x > 0.0);
+    // A return of `new` is 0 or a positive range: it survives both routines when the count of
+    // obstacles around it reaches O_s and it lies within [d_min, d_max]; 0 stays 0.
+    let keep = |x: f32, count: usize| keep_if(x, (count >= o_s) & (x >= d_min) & (x <= d_max));
+    let d = params.thin_window / 2;
+    if 2 * d + 1 >= ne {
+        // the whole scan is the window
+        let total: usize = new.iter().map(|&x| is(x)).sum();
+        for (f, &x) in rf.iter_mut().zip(new) {
+            *f = keep(x, total);
+        }
+        return;
+    }
+    let mut count: usize = (0..=2 * d)
+        .map(|k| is(new[wrap(0, k as isize - d as isize, ne)]))
+        .sum();
+    for (r, f) in rf.iter_mut().enumerate() {
+        *f = keep(new[r], count);
+        // Slide the window from r to r+1 (wrapped; d < ne / 2).
+        let leaving = if r >= d { r - d } else { r + ne - d };
+        let entering = if r + d + 1 < ne {
+            r + d + 1
+        } else {
+            r + d + 1 - ne
+        };
+        count = count - is(new[leaving]) + is(new[entering]);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // UPDATE-AND-ARCHIVE
 // ---------------------------------------------------------------------------------------------
@@ -1100,25 +1210,24 @@ pub fn crop_range(rf: &mut [f32], d_min: f32, d_max: f32) -> usize {
 ///   a ceiling, so the evidence reaches 0 after a finite number of scans);
 /// * never below 0.
 pub fn evidence_step(c_k: f32, c_prev1: f32) -> f32 {
-    if c_k == 0.0 && c_prev1 == 0.0 {
-        // most windows, most scans: no evidence now or before (and no rounding call)
-        return 0.0;
-    }
+    // (Branch-free: windows with and without evidence alternate along the circle. With no
+    // evidence now or before, both branches give 0.)
     let learn = c_k + c_prev1;
     // Interpretation (10): the bracket of line 16 is a ceiling, so old evidence expires.
-    let forget = c_prev1 - ceil_non_negative((c_k + c_prev1) / 2.0);
-    let forget = if forget > 0.0 { forget } else { 0.0 };
-    if c_k > c_prev1 { learn } else { forget }
+    let forget = c_prev1 - ceil_exact((c_k + c_prev1) / 2.0);
+    let forget = select(forget > 0.0, forget, 0.0);
+    select(c_k > c_prev1, learn, forget)
 }
 
-/// `x.ceil()` without the libm call for `0 ≤ x < 2²³` (evidence values); other inputs use `ceil`.
+/// `x.ceil()` without the libm call and without a branch (a call the compiler may not skip
+/// would run for every window): exact for every `f32`. From `2²³` up every `f32` is an integer,
+/// so only smaller magnitudes are rounded; NaN and ±∞ are returned as they are.
 #[inline]
-fn ceil_non_negative(x: f32) -> f32 {
-    if !(0.0..8_388_608.0).contains(&x) {
-        return x.ceil();
-    }
-    let t = (x as u32) as f32; // truncation of a non-negative value
-    if t < x { t + 1.0 } else { t }
+fn ceil_exact(x: f32) -> f32 {
+    let t = (x as i32) as f32; // truncation towards 0 (exact for |x| < 2²³)
+    // t + 1 above a positive fraction; the sign of x kept, so that ceil(-0.5) is -0
+    let c = (t + f32::from(u8::from(t < x))).copysign(x);
+    select(x.abs() < 8_388_608.0, c, x)
 }
 
 /// `UPDATE-AND-ARCHIVE(A, R_c)` (paper §6).
@@ -1246,6 +1355,7 @@ pub struct Classifier {
     rc: Vec<f32>,
     rf: Vec<f32>,
     thin_copy: Vec<f32>,
+    seen: Vec<bool>,
     relax_work: RelaxWork,
     classes: Vec<u8>,
     nearest: Vec<f32>,
@@ -1275,6 +1385,7 @@ impl Classifier {
             rc: Vec::new(),
             rf: Vec::new(),
             thin_copy: Vec::new(),
+            seen: Vec::with_capacity(n_w),
             relax_work: RelaxWork::default(),
             classes: Vec::new(),
             nearest: vec![f32::INFINITY; n_s],
@@ -1322,10 +1433,22 @@ impl Classifier {
         );
         self.history.archive_thresholds(&mut self.t_k);
         relax_obst(&p, scan, &self.history, &mut self.rc, &mut self.relax_work);
-        // Interpretation (12): the paper's pruning order, REMOVE-NEW → REMOVE-THIN → CROP-RANGE.
-        remove_new_obst(scan, &self.history, &self.rc, &mut self.rf);
-        remove_thin_obst(&mut self.rf, p.thin_window, p.thin_min, &mut self.thin_copy);
-        crop_range(&mut self.rf, p.d_min_m, p.d_max_m);
+        // Interpretation (12): the paper's pruning order, REMOVE-NEW → REMOVE-THIN → CROP-RANGE;
+        // REMOVE-NEW-OBST writes the copy that REMOVE-THIN-OBST reads.
+        seen_near_windows(&self.history, &mut self.seen);
+        let new = &mut self.thin_copy;
+        new.clear();
+        new.extend(
+            self.rc[..ne]
+                .iter()
+                .zip(&self.windows[..ne])
+                .map(|(&c, &w)| {
+                    // Interpretation (6), with the windows' answers made beforehand (branch-free).
+                    let seen = self.seen.get(w as usize).copied().unwrap_or(false);
+                    keep_if(c, (c > 0.0) & seen)
+                }),
+        );
+        thin_and_crop(&p, new, &mut self.rf);
         let alarm = update_and_archive(
             &p,
             scan,
@@ -1338,11 +1461,11 @@ impl Classifier {
 
         self.classes.clear();
         let (mut obstacles, mut candidates) = (0, 0);
-        for ((&f, &cand), &range) in self.rf[..ne]
+        let per_return = self.rf[..ne]
             .iter()
             .zip(&self.rc[..ne])
-            .zip(&self.ranges[..ne])
-        {
+            .zip(&self.ranges[..ne]);
+        self.classes.extend(per_return.map(|((&f, &cand), &range)| {
             // (Branch-free: the classes interleave at random.) R_f ⊆ R_c ⊆ {R > 0}.
             let (is_obstacle, is_candidate) = (f > 0.0, cand > 0.0);
             obstacles += usize::from(is_obstacle);
@@ -1353,9 +1476,8 @@ impl Classifier {
                 class::NO_RETURN
             };
             c = if is_candidate { class::PRUNED } else { c };
-            c = if is_obstacle { class::OBSTACLE } else { c };
-            self.classes.push(c);
-        }
+            if is_obstacle { class::OBSTACLE } else { c }
+        }));
         Verdict {
             alarm,
             nearest_per_sector: &self.nearest,
