@@ -1,6 +1,8 @@
 //! Time to simulate one dual-return revolution (600 rpm: about 151 packets, 29 000 firings) of
 //! each bundled world, one core. The densest is scenario 4 (grass everywhere, bushes, trees).
 //!
+//! Worlds with grass are timed again with `sim.grass_blades` (grass as blades in the ground).
+//!
 //! `cargo bench -p mimnav-sim --bench revolution`
 
 use std::path::PathBuf;
@@ -19,7 +21,23 @@ fn main() {
     worlds.sort();
     for path in worlds {
         let w = WorldFile::load(&path).expect("world");
-        let mut sim = Sim::new(w.compile(), SimSettings::default(), 1, DEFAULT_EPOCH_NS);
+        for blades in [false, true] {
+            if blades && w.grass.is_empty() {
+                continue;
+            }
+            let mut settings = SimSettings::default();
+            settings.lidar.physics.grass_blades = blades;
+            time(
+                &path,
+                blades,
+                Sim::new(w.compile(), settings, 1, DEFAULT_EPOCH_NS),
+            );
+        }
+    }
+}
+
+fn time(path: &std::path::Path, blades: bool, mut sim: Sim) {
+    {
         // warm up: one revolution
         while !sim.step().completes_revolution {}
         let mut best = f64::INFINITY;
@@ -32,11 +50,17 @@ fn main() {
             best = best.min(ms);
             total += ms;
         }
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         println!(
             "{:<34} one dual revolution: best {best:6.2} ms, mean {:6.2} ms ({rounds} revolutions)",
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default(),
+            if blades {
+                name + " (grass_blades)"
+            } else {
+                name
+            },
             total / rounds as f64
         );
     }
