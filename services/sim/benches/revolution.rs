@@ -37,31 +37,29 @@ fn main() {
 }
 
 fn time(path: &std::path::Path, blades: bool, mut sim: Sim) {
-    {
-        // warm up: one revolution
+    // warm up: one revolution
+    while !sim.step().completes_revolution {}
+    let mut best = f64::INFINITY;
+    let mut total = 0.0;
+    let rounds = 20;
+    for _ in 0..rounds {
+        let t = Instant::now();
         while !sim.step().completes_revolution {}
-        let mut best = f64::INFINITY;
-        let mut total = 0.0;
-        let rounds = 20;
-        for _ in 0..rounds {
-            let t = Instant::now();
-            while !sim.step().completes_revolution {}
-            let ms = t.elapsed().as_secs_f64() * 1e3;
-            best = best.min(ms);
-            total += ms;
-        }
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        println!(
-            "{:<34} one dual revolution: best {best:6.2} ms, mean {:6.2} ms ({rounds} revolutions)",
-            if blades {
-                name + " (grass_blades)"
-            } else {
-                name
-            },
-            total / rounds as f64
-        );
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        best = best.min(ms);
+        total += ms;
     }
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    println!(
+        "{:<44} one dual revolution: best {best:6.2} ms, mean {:6.2} ms ({rounds} revolutions)",
+        if blades {
+            name + " (grass_blades)"
+        } else {
+            name
+        },
+        total / rounds as f64
+    );
 }

@@ -13,7 +13,7 @@
 //!
 //! The model:
 //! - a blade (or a tuft of them) is a vertical strip from the ground to the patch's top, 4–12 mm
-//!   wide, always seen edge-on to nothing (a strip as wide for every azimuth);
+//!   wide, as wide seen from every azimuth;
 //! - a beam is a horizontal strip of width `D(t) = 12.7 mm + 3 mrad · t` at range `t`; where it
 //!   overlaps a blade by `L`, the blade intercepts `L / D` of it (the mean over the beams that
 //!   meet a blade is `w / (w + D)`, 0.3 for an 8 mm blade at 2 m, as the old model's 10–40 %);
@@ -145,7 +145,7 @@ impl Draws {
     }
 }
 
-/// A blade near a horizontal ray: its position at the time asked, in the field's frame.
+/// A blade near a horizontal ray: its position at the time asked (world frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NearBlade {
     /// Position, m (world frame).
