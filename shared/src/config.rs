@@ -165,6 +165,13 @@ pub struct FoliageConfig {
     /// Beyond the paper: a window whose maximum is nearer than both neighbours' takes the nearer
     /// neighbour's maximum before FIND-LOW-FREQ's differences (blades in front of a surface).
     pub fill_notches: bool,
+    /// Beyond the paper: earlier scans whose window maxima, moved with the odometry into the
+    /// present scan's frame, join the max filter's smoothness test (0: the paper).
+    pub carry_scans: usize,
+    /// How far, m, the sensor must have moved from where an earlier scan was taken to carry it.
+    pub carry_min_travel_m: f64,
+    /// Odometry older than this when a scan arrives is not used to carry earlier scans, s.
+    pub odom_max_age_s: f64,
 }
 
 impl Default for FoliageConfig {
@@ -184,6 +191,9 @@ impl Default for FoliageConfig {
             thin_min: 3,
             hold_obstacles: true,
             fill_notches: true,
+            carry_scans: 2,
+            carry_min_travel_m: 0.03,
+            odom_max_age_s: 0.5,
         }
     }
 }
@@ -208,6 +218,14 @@ impl FoliageConfig {
         r.check("foliage.window_deg", self.window_deg, 0.05, 45.0);
         r.check("foliage.sector_deg", self.sector_deg, 5.0, 180.0);
         r.check("foliage.thin_window", self.thin_window as f64, 1.0, 1001.0);
+        r.check("foliage.carry_scans", self.carry_scans as f64, 0.0, 8.0);
+        r.check(
+            "foliage.carry_min_travel_m",
+            self.carry_min_travel_m,
+            0.0,
+            1.0,
+        );
+        r.check("foliage.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check(
             "foliage.thin_min",
             self.thin_min as f64,

@@ -1,4 +1,5 @@
-//! Times `Classifier::classify` on synthetic VLP-16 scans (1800 returns, one laser, one turn):
+//! Times `Classifier::classify_moved` (with the sensor driving, as the service runs it) and
+//! `Classifier::classify` (no odometry) on synthetic VLP-16 scans (1800 returns, one laser, one turn):
 //! walls, a trunk and posts, and grass of varying density, with range noise and 2 mm quantisation.
 //!
 //! Run: `cargo bench -p mimnav-foliage --bench scan [-- <scans> [<kind 0..5>]]`
@@ -7,7 +8,7 @@ use std::f32::consts::{PI, TAU};
 use std::hint::black_box;
 use std::time::Instant;
 
-use mimnav_foliage::{Classifier, FoliageParams};
+use mimnav_foliage::{Classifier, FoliageParams, Motion};
 
 const NE: usize = 1800;
 
@@ -114,9 +115,36 @@ fn main() {
             std::process::exit(1);
         }
     };
+    // The service's path: odometry says the robot drove 5 cm since the last scan, so the
+    // default 2 earlier scans are carried (interpretation 17); then without odometry (the paper's
+    // pipeline, nothing carried).
+    let moving = Some(Motion {
+        dx_m: 0.05,
+        ..Motion::default()
+    });
+    for (label, motion) in [
+        (
+            "classify_moved(), driving 5 cm a scan (2 scans carried)",
+            moving,
+        ),
+        ("classify(), no odometry (nothing carried)", None),
+    ] {
+        time_scans(&mut clf, &scans, n_scans, only, label, motion);
+    }
+}
+
+fn time_scans(
+    clf: &mut Classifier,
+    scans: &[(Vec<f32>, Vec<f32>)],
+    n_scans: usize,
+    only: Option<usize>,
+    label: &str,
+    motion: Option<Motion>,
+) {
+    clf.reset();
     // Warm-up: sizes the buffers, fills the caches.
     for (a, r) in scans.iter().take(50) {
-        black_box(clf.classify(a, r).alarm);
+        black_box(clf.classify_moved(a, r, motion).alarm);
     }
     let mut times = Vec::with_capacity(n_scans);
     let mut per_kind = [(0.0f64, 0usize); 5];
@@ -126,7 +154,7 @@ fn main() {
     for i in 0..n_scans {
         let (a, r) = &scans[i % scans.len()];
         let t0 = Instant::now();
-        let v = clf.classify(black_box(a), black_box(r));
+        let v = clf.classify_moved(black_box(a), black_box(r), black_box(motion));
         let dt = t0.elapsed();
         alarms += usize::from(v.alarm);
         obstacles += v.obstacle_count;
@@ -141,7 +169,7 @@ fn main() {
     let mean = times.iter().sum::<f64>() / times.len().max(1) as f64;
     let pct = |p: f64| times[((times.len() as f64 - 1.0) * p).round() as usize];
     println!(
-        "classify(): {n_scans} scans x {NE} returns: mean {mean:.1} us, p50 {:.1} us, p99 {:.1} us, max {:.1} us \
+        "{label}: {n_scans} scans x {NE} returns: mean {mean:.1} us, p50 {:.1} us, p99 {:.1} us, max {:.1} us \
          ({:.0} scans/s; {alarms} alarms, {:.0} obstacle returns/scan)",
         pct(0.5),
         pct(0.99),
