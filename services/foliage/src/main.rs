@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use clap::Parser;
 use iceoryx2::prelude::*;
-use mimnav_foliage::{Classifier, FoliageParams};
+use mimnav_foliage::{Classifier, FoliageParams, Motion};
 use mimnav_shared::cli::ServiceArgs;
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
@@ -53,6 +53,9 @@ fn run(config: &Config) -> Result<()> {
     );
     let node = ipc::node(config, "foliage")?;
     let scans = ipc::scan_subscriber(&node)?;
+    // the sensor's motion between scans, for the carried scans (interpretation 17); optional
+    let odom_sub = ipc::odom_subscriber(&node)?;
+    let odom_max_age_ns = (config.foliage.odom_max_age_s * 1e9) as u64;
     // as long as the driver's longest scan
     let asm = AssemblerConfig::from_config(config);
     let max_returns = max_scan_len(config.velodyne.rpm, asm.max_duration_ns as f64 * 1e-9);
@@ -80,10 +83,22 @@ fn run(config: &Config) -> Result<()> {
     let (mut seq, mut alarm_on, mut alarmed) = (0u64, false, 0u64);
     let (mut spent_us, mut since_report) = (0u64, 0u64);
     let mut last_scan = Instant::now();
+    let mut latest_odom: Option<mimnav_shared::topics::Odometry> = None;
+    // the odometry pose at the previous scan, when it was fresh
+    let mut last_pose: Option<[f64; 3]> = None;
+    let mut told_no_odom = false;
     sd.ready("waiting for lidar/scan2d");
     let result = ipc::run_waitset(&waitset, |_id| {
         let now = Instant::now();
         sd.alive(now);
+        let _ = odom_sub.heard();
+        match odom_sub.latest() {
+            Ok(Some(o)) => latest_odom = Some(o),
+            Ok(None) => {}
+            Err(e) => {
+                faults.record("receive_failed", Instant::now(), e);
+            }
+        }
         let _ = scans.heard();
         loop {
             let sample = match scans.receive() {
@@ -104,7 +119,33 @@ fn run(config: &Config) -> Result<()> {
                 ranges.push(r.range_m);
             }
             drop(sample);
-            let verdict = classifier.classify(&angles, &ranges);
+            let pose = match latest_odom {
+                _ if params.carry_scans == 0 => None,
+                None => {
+                    if !told_no_odom {
+                        told_no_odom = true;
+                        tracing::info!(
+                            "no odometry on {} yet: earlier scans are not carried (foliage.carry_scans)",
+                            mimnav_shared::topics::ODOM
+                        );
+                    }
+                    None
+                }
+                Some(o) if ipc::monotonic_ns().saturating_sub(o.rx_mono_ns) > odom_max_age_ns => {
+                    faults.record(
+                        "stale_odom",
+                        Instant::now(),
+                        "odometry is stale: earlier scans are not carried",
+                    );
+                    None
+                }
+                Some(o) => Some([o.x, o.y, o.yaw]),
+            };
+            let motion = last_pose
+                .zip(pose)
+                .map(|(from, to)| Motion::between(from, to));
+            last_pose = pose;
+            let verdict = classifier.classify_moved(&angles, &ranges, motion);
             out.clear();
             out.extend(angles.iter().zip(&ranges).zip(verdict.classes).map(
                 |((&angle_rad, &range_m), &class)| FoliageReturn {

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::{Classifier, FoliageParams};
+use mimnav_foliage::{Classifier, FoliageParams, Motion};
 use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::glass::Pose2;
 use mimnav_mapper::render::{self, Image};
@@ -214,6 +214,8 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     let mut classifier = Classifier::new(FoliageParams::from_config(&config.foliage))
         .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     let (mut angles, mut ranges, mut obstacles) = (Vec::new(), Vec::new(), Vec::new());
+    // the sensor's pose at the previous scan, for the classifier's carried scans
+    let mut last_pose: Option<[f64; 3]> = None;
     let mut episode = Episode {
         world: scene.name.clone(),
         method,
@@ -269,7 +271,10 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
                         angles.push(r.angle_rad);
                         ranges.push(r.range_m);
                     }
-                    let verdict = classifier.classify(&angles, &ranges);
+                    let pose = [b.pose.x, b.pose.y, b.pose.yaw];
+                    let motion = last_pose.map(|from| Motion::between(from, pose));
+                    last_pose = Some(pose);
+                    let verdict = classifier.classify_moved(&angles, &ranges, motion);
                     episode.alarms += u64::from(verdict.alarm);
                     obstacles.clear();
                     obstacles.extend(

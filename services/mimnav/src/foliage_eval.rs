@@ -309,6 +309,8 @@ pub fn run_episode(
     // per obstacle: the longest run of consecutive returns on it
     let mut longest = vec![0usize; n];
     let mut on_return: Vec<Option<usize>> = Vec::new();
+    // the sensor's pose at the previous scan (the sensor sits on the base's vertical axis)
+    let mut last_pose: Option<[f64; 3]> = None;
     while episode.scans < scans {
         if sim.outcome() != Outcome::Running {
             episode.contact = matches!(sim.outcome(), Outcome::Contact(_));
@@ -373,8 +375,12 @@ pub fn run_episode(
             ranges.push(r.range_m);
         }
         truth.drain(..scan.len());
+        let pose = sim.base().pose;
+        let pose = [pose.x, pose.y, pose.yaw];
+        let motion = last_pose.map(|from| mimnav_foliage::Motion::between(from, pose));
+        last_pose = Some(pose);
         let started = std::time::Instant::now();
-        let verdict = classifier.classify(&angles, &ranges);
+        let verdict = classifier.classify_moved(&angles, &ranges, motion);
         episode.classify_ns += started.elapsed().as_nanos();
         let mut on_any = false;
         for (c, o) in verdict.classes.iter().zip(&on_return) {
