@@ -2056,6 +2056,35 @@ fn carried_scans_find_a_trunk_hidden_in_grass_sooner_while_driving() {
     );
 }
 
+/// Alarms in 200 scans driving at `step` m a scan over a static grass strip ([`strip_scan`]),
+/// from x = −2 m to 0.5 m and again from −2 m with the classifier reset.
+fn strip_drive_alarms(
+    params: FoliageParams,
+    seed: u64,
+    step: f32,
+    strip: (f32, f32),
+    mfp: Option<f32>,
+) -> usize {
+    let mut rng = Rng::new(seed);
+    let mut c = classifier_with(params);
+    let mut x = -2.0f32;
+    let mut alarms = 0;
+    for _ in 0..200 {
+        let (a, r) = strip_scan(&mut rng, x, strip, mfp, None);
+        let m = Motion {
+            dx_m: step,
+            ..Motion::default()
+        };
+        alarms += usize::from(c.classify_moved(&a, &r, Some(m)).alarm);
+        x += step;
+        if x > 0.5 {
+            x = -2.0;
+            c.reset();
+        }
+    }
+    alarms
+}
+
 #[test]
 fn carried_scans_driving_through_grass_rarely_alarm() {
     // Static grass strips whose blades stop each beam an exponential distance in (Beer–Lambert,
@@ -2067,23 +2096,7 @@ fn carried_scans_driving_through_grass_rarely_alarm() {
         ("toward, sparse", (1.0, 3.0), 1.5),
     ] {
         for step in [0.03f32, 0.05, 0.1] {
-            let mut rng = Rng::new(11);
-            let mut c = classifier();
-            let mut x = -2.0f32;
-            let mut alarms = 0;
-            for _ in 0..200 {
-                let (a, r) = strip_scan(&mut rng, x, strip, Some(mfp), None);
-                let m = Motion {
-                    dx_m: step,
-                    ..Motion::default()
-                };
-                alarms += usize::from(c.classify_moved(&a, &r, Some(m)).alarm);
-                x += step;
-                if x > 0.5 {
-                    x = -2.0;
-                    c.reset();
-                }
-            }
+            let alarms = strip_drive_alarms(FoliageParams::default(), 11, step, strip, Some(mfp));
             assert!(
                 alarms <= 1,
                 "{name} at {step} m a scan: {alarms} false alarms in 200 scans"
@@ -2126,24 +2139,7 @@ fn carried_scans_price() {
         for step in [0.03f32, 0.05, 0.1] {
             let mut counts = Vec::new();
             for seed in 11..16 {
-                let mut rng = Rng::new(seed);
-                let mut c = classifier_with(params);
-                let mut x = -2.0f32;
-                let mut alarms = 0;
-                for _ in 0..200 {
-                    let (a, r) = strip_scan(&mut rng, x, (1.0, 2.0), None, None);
-                    let m = Motion {
-                        dx_m: step,
-                        ..Motion::default()
-                    };
-                    alarms += usize::from(c.classify_moved(&a, &r, Some(m)).alarm);
-                    x += step;
-                    if x > 0.5 {
-                        x = -2.0;
-                        c.reset();
-                    }
-                }
-                counts.push(alarms);
+                counts.push(strip_drive_alarms(params, seed, step, (1.0, 2.0), None));
             }
             strip.push(format!("{step} m a scan: {counts:?}"));
         }
