@@ -72,6 +72,17 @@ fn ray_segment(angle: f32, p0: (f32, f32), p1: (f32, f32)) -> Option<f32> {
     (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
 }
 
+/// The range a VLP-16 reports for a surface at `best` m (∞: none, reported as 0): Gaussian noise
+/// of `sigma`, at least 1 cm, quantised to 2 mm.
+fn measured(rng: &mut Rng, best: f32, sigma: f32) -> f32 {
+    if best.is_finite() {
+        let noisy = (best + rng.normal(sigma)).max(0.01);
+        (noisy / 0.002).round() * 0.002
+    } else {
+        0.0
+    }
+}
+
 #[derive(Clone)]
 struct Scene {
     discs: Vec<(f32, f32, f32)>,
@@ -117,14 +128,8 @@ impl Scene {
                     best = best.min(t);
                 }
             }
-            let range = if best.is_finite() {
-                let noisy = (best + rng.normal(self.sigma)).max(0.01);
-                (noisy / 0.002).round() * 0.002
-            } else {
-                0.0
-            };
             angles.push(a);
-            ranges.push(range);
+            ranges.push(measured(rng, best, self.sigma));
         }
         (angles, ranges)
     }
@@ -1857,14 +1862,10 @@ fn strip_scan(
                 }
             }
         }
-        let range = if best.is_finite() && best < 30.0 {
-            let noisy = (best + rng.normal(0.01)).max(0.01);
-            (noisy / 0.002).round() * 0.002
-        } else {
-            0.0
-        };
+        // nothing beyond 30 m (a beam nearly along the strip would cross it far away)
+        let best = if best < 30.0 { best } else { f32::INFINITY };
         angles.push(a);
-        ranges.push(range);
+        ranges.push(measured(rng, best, 0.01));
     }
     (angles, ranges)
 }

@@ -5,7 +5,8 @@
 //! revolutions, in-process and deterministic. Each revolution goes the way it goes in the stack:
 //! the simulated VLP-16's packets through the driver's revolution assembler (decoder and planar
 //! scan of `velodyne.scan_laser` / `velodyne.scan_return`), the planar scan through
-//! [`Classifier::classify`] with the `[foliage]` parameters.
+//! [`Classifier::classify_moved`] with the `[foliage]` parameters and the sensor's motion since
+//! the previous scan, from the simulated pose (what the service takes from `odom`).
 //!
 //! Ground truth comes from the simulator, never from the classifier: before each packet the
 //! simulator hands out the very beams the scan laser fires in it ([`Sim::next_beams`]); each is
