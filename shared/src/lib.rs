@@ -10,6 +10,8 @@ pub mod faults;
 pub mod grid;
 pub mod ipc;
 pub mod logging;
+pub mod pose;
 pub mod realtime;
+pub mod service;
 pub mod systemd;
 pub mod topics;
