@@ -136,6 +136,25 @@ impl Turn {
     }
 }
 
+/// A socket's descriptor, so the WaitSet can wait on it beside iceoryx2's own events.
+#[derive(Debug)]
+pub struct SocketFd(FileDescriptor);
+
+impl SocketFd {
+    /// Wraps `fd` without taking ownership; `None` for an invalid descriptor.
+    pub fn borrowed(fd: std::os::fd::RawFd) -> Option<SocketFd> {
+        FileDescriptor::non_owning_new(fd).map(SocketFd)
+    }
+}
+
+impl FileDescriptorBased for SocketFd {
+    fn file_descriptor(&self) -> &FileDescriptor {
+        &self.0
+    }
+}
+
+impl SynchronousMultiplexing for SocketFd {}
+
 /// A service's node and event loop.
 #[derive(Debug)]
 pub struct Service {
@@ -211,9 +230,31 @@ impl Service {
             .map_err(|e| ServiceError::WaitSet(format!("cannot attach an interval: {e:?}")))
     }
 
-    /// The underlying WaitSet, for attachments of other kinds (a socket's descriptor).
-    pub fn waitset(&self) -> &WaitSet<Svc> {
-        &self.waitset
+    /// Wakes the loop whenever one of `fds` (sockets the service reads, non-blocking) is
+    /// readable. The descriptors stay owned by the caller and must outlive the guards.
+    pub fn on_fds<'a>(
+        &'a self,
+        fds: &'a [SocketFd],
+    ) -> Result<Vec<WaitSetGuard<'a, 'a, Svc>>, ServiceError> {
+        (fds.iter())
+            .map(|fd| self.waitset.attach_notification(fd))
+            .collect::<Result<_, _>>()
+            .map_err(|e| ServiceError::WaitSet(format!("cannot wait on a socket: {e:?}")))
+    }
+
+    /// Sleeps until `until`, pinging the watchdog meanwhile; false once SIGTERM or SIGINT asked
+    /// the process to stop (for loops paced by something other than the WaitSet: a replay).
+    pub fn sleep_until(&self, health: &mut Health, until: Instant) -> bool {
+        loop {
+            let now = Instant::now();
+            health.sd.alive(now);
+            if now >= until {
+                return true;
+            }
+            if !ipc::sleep(&self.node, (until - now).min(self.tick)) {
+                return false;
+            }
+        }
     }
 
     /// Runs the loop until SIGTERM or SIGINT: `READY=1` with `ready` first; on every turn the

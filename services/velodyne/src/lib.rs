@@ -7,6 +7,7 @@
 //! - [`decode`]: one data packet into [`Point`](mimnav_shared::topics::Point)s and the planar
 //!   scan returns of one laser;
 //! - [`revolution`]: packets into revolutions, cut by azimuth, duration or capacity;
+//! - [`driver`]: the service's step: a datagram in, a finished revolution out, counted;
 //! - [`capture`] and [`udp`]: where the datagrams come from (a pcap/pcapng file or a socket), and
 //!   [`replay`]: pacing a capture by its timestamps.
 //!
@@ -21,6 +22,7 @@
 
 pub mod capture;
 pub mod decode;
+pub mod driver;
 pub mod packet;
 pub mod replay;
 pub mod revolution;

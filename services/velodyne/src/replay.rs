@@ -1,11 +1,88 @@
-//! Pacing a capture replay by its timestamps.
+//! Replaying a capture, paced by its timestamps.
 //!
+//! [`Replay`] reads a capture once or in a loop and says when each datagram is due.
 //! [`Pacer`] turns capture timestamps into the instants at which the datagrams should be sent:
 //! real time times a speed factor, or as fast as possible. The capture's clock is followed
 //! through a virtual clock that only moves forward and at most `max_gap_ns` per datagram, so a
 //! capture with out-of-order timestamps or a long pause does not stall the replay.
 
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+use crate::capture::{CaptureError, CaptureReader, Datagram};
+
+/// A capture replayed once or in a loop, paced by a [`Pacer`]: each datagram comes with the
+/// instant it is due.
+pub struct Replay {
+    path: PathBuf,
+    reader: CaptureReader,
+    pacer: Pacer,
+    looping: bool,
+    pass_ended: bool,
+}
+
+/// What [`Replay::next`] gives.
+pub enum Next<'a> {
+    /// A datagram, and when it is due.
+    Datagram(Datagram<'a>, Instant),
+    /// A pass over the capture ended; with `looping`, the next call starts the next pass.
+    PassEnded,
+    /// The replay is over (the last pass of one that does not loop ended).
+    Finished,
+}
+
+impl Replay {
+    /// Opens `path` for a replay at `speed` × real time (`None`: as fast as possible), gaps
+    /// shortened to `max_gap_ns`, in a loop or once.
+    pub fn open(
+        path: &Path,
+        speed: Option<f64>,
+        max_gap_ns: u64,
+        looping: bool,
+    ) -> Result<Self, CaptureError> {
+        let reader = CaptureReader::open(path)?;
+        tracing::info!(file = %path.display(), bytes = reader.file_len(), "replaying capture");
+        Ok(Replay {
+            path: path.to_path_buf(),
+            reader,
+            pacer: Pacer::new(speed, max_gap_ns),
+            looping,
+            pass_ended: false,
+        })
+    }
+
+    /// The capture's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The next datagram and when it is due (it being `now`), or the end of a pass; after the
+    /// end of the last pass, [`Next::Finished`].
+    pub fn next(&mut self, now: Instant) -> Result<Next<'_>, CaptureError> {
+        if self.pass_ended {
+            for (kind, n) in self.reader.skipped() {
+                tracing::info!(kind, count = n, "frames without a UDP datagram passed over");
+            }
+            if !self.looping {
+                return Ok(Next::Finished);
+            }
+            self.reader = CaptureReader::open(&self.path)?;
+            self.pacer.restart();
+            self.pass_ended = false;
+        }
+        let pacer = &mut self.pacer;
+        match self.reader.next()? {
+            Some(d) => {
+                let due = pacer.due(d.ts_ns, now);
+                Ok(Next::Datagram(d, due))
+            }
+            None => {
+                self.pass_ended = true;
+                Ok(Next::PassEnded)
+            }
+        }
+    }
+}
 
 /// Replay pacing.
 #[derive(Debug, Clone)]

@@ -21,6 +21,19 @@ pub struct UdpConfig {
     pub recv_buffer_bytes: usize,
 }
 
+impl UdpConfig {
+    /// The `[velodyne]` settings of the socket.
+    pub fn from_config(v: &mimnav_shared::config::VelodyneConfig) -> Self {
+        UdpConfig {
+            bind_address: v.bind_address,
+            data_port: v.data_port,
+            position_port: (v.position_port != 0).then_some(v.position_port),
+            allowed_source: v.allowed_source,
+            recv_buffer_bytes: v.recv_buffer_bytes,
+        }
+    }
+}
+
 /// Which socket a datagram came in on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Port {
@@ -66,12 +79,27 @@ impl UdpSource {
             }
             None => None,
         };
-        Ok(UdpSource {
+        let source = UdpSource {
             data,
             position,
             allowed_source: config.allowed_source,
             rejected: 0,
-        })
+        };
+        let granted = source.recv_buffer_bytes().unwrap_or(0);
+        if granted < config.recv_buffer_bytes {
+            tracing::info!(
+                asked = config.recv_buffer_bytes,
+                granted,
+                "the kernel granted a smaller UDP receive buffer (raise net.core.rmem_max to get more)"
+            );
+        }
+        tracing::info!(
+            data = %source.data_addr().map(|a| a.to_string()).unwrap_or_default(),
+            position_port = ?config.position_port,
+            allowed_source = ?config.allowed_source,
+            "listening for VLP-16 datagrams"
+        );
+        Ok(source)
     }
 
     /// The local address of the data socket (useful when bound to port 0).
