@@ -259,22 +259,13 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     for s in &mut services {
         s.stop(Duration::from_secs(2));
     }
-    let field = |k: &str| -> Option<String> {
-        let at = summary.find(&format!("\"{k}\":"))? + k.len() + 3;
-        Some(
-            summary[at..]
-                .split([',', '}'])
-                .next()?
-                .trim_matches('"')
-                .to_string(),
-        )
-    };
-    let outcome = field("outcome").unwrap_or_else(|| "unknown".into());
-    let num = |k: &str| {
-        field(k)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
+    // the simulator's summary line (`mimnav-sim --json`); a run cut short may have printed none
+    let ended: Option<mimnav_sim::Summary> = summary
+        .lines()
+        .rev()
+        .find_map(|l| serde_json::from_str(l).ok());
+    let outcome = ended.as_ref().map_or("unknown", |e| e.outcome.as_str());
+    let num = |f: fn(&mimnav_sim::Summary) -> f64| ended.as_ref().map_or(f64::NAN, f);
 
     if let Some((h, classes)) = &last_map {
         let grid = GridSpec {
@@ -310,10 +301,10 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     println!(
         "{}: {outcome} after {:.1} s simulated ({wall_s:.1} s wall); driven {:.2} m, straight line {:.2} m (ratio {:.2})",
         world.name,
-        num("time_s"),
-        num("path_length_m"),
-        num("straight_m"),
-        num("path_length_m") / num("straight_m")
+        num(|e| e.time_s),
+        num(|e| e.path_length_m),
+        num(|e| e.straight_m),
+        num(|e| e.path_length_m / e.straight_m)
     );
     println!(
         "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input, {alarmed} with the foliage alarm); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
@@ -339,7 +330,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     if interrupted {
         return Ok(ExitCode::from(130));
     }
-    Ok(match (outcome.as_str(), status.success()) {
+    Ok(match (outcome, status.success()) {
         ("goal_reached", true) => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })

@@ -30,7 +30,7 @@ pub mod world;
 
 use mimnav_shared::config::{Config, SimReturnMode};
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
+use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry, return_mode};
 use mimnav_velodyne::packet::{BLOCKS, POSITION_PACKET_LEN};
 use mimnav_velodyne::revolution::TurnCutter;
 
@@ -161,6 +161,50 @@ impl Default for SimSettings {
             radius_m: 0.2,
             goal_tolerance_m: 0.3,
         }
+    }
+}
+
+/// The end of a simulation: where the robot got, how far it drove, how the episode ended.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Summary {
+    /// World name.
+    pub world: String,
+    /// `running`, `stopped` (by a signal), `goal_reached`, `contact:<object index>` or `timeout`.
+    pub outcome: String,
+    /// Simulated time, s.
+    pub time_s: f64,
+    /// Distance driven, m.
+    pub path_length_m: f64,
+    /// Straight distance from the start to the goal, m.
+    pub straight_m: f64,
+    /// Distance left to the goal, m.
+    pub distance_to_goal_m: f64,
+    /// Final position, m.
+    pub x: f64,
+    /// Final position, m.
+    pub y: f64,
+    /// Revolutions completed.
+    pub revolutions: u64,
+    /// Lock-step revolutions the stack did not answer in time.
+    pub lockstep_timeouts: u64,
+}
+
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} after {:.1} s; driven {:.2} m (straight line {:.2} m, ratio {:.2}); at ({:.2}, {:.2}), {:.2} m from the goal; {} revolutions",
+            self.world,
+            self.outcome,
+            self.time_s,
+            self.path_length_m,
+            self.straight_m,
+            self.path_length_m / self.straight_m.max(1e-9),
+            self.x,
+            self.y,
+            self.distance_to_goal_m,
+            self.revolutions
+        )
     }
 }
 
@@ -350,6 +394,47 @@ impl Sim {
             self.outcome = Outcome::GoalReached;
         } else if self.elapsed_s() > self.scene.time_limit_s {
             self.outcome = Outcome::Timeout;
+        }
+    }
+
+    /// The base's pose and velocity now as a robot base publishes them on `odom` (the sim's
+    /// clock as the stamp): the simulator's service and the in-process runner build the same
+    /// message, so the stack sees the same numbers either way.
+    pub fn odometry(&self, seq: u64, rx_mono_ns: u64) -> Odometry {
+        let b = &self.base;
+        Odometry {
+            seq,
+            stamp_ns: self.now_ns(),
+            rx_mono_ns,
+            x: b.pose.x,
+            y: b.pose.y,
+            yaw: b.pose.yaw,
+            v: b.v as f32,
+            omega: b.omega as f32,
+        }
+    }
+
+    /// How the episode stands, for people (`Display`) and programs (JSON).
+    pub fn summary(&self, stopped: bool, lockstep_timeouts: u64) -> Summary {
+        let p = self.base.pose;
+        let (start, goal) = (self.scene.start, self.scene.goal);
+        Summary {
+            world: self.scene.name.clone(),
+            outcome: match self.outcome {
+                Outcome::Running if stopped => "stopped".to_string(),
+                Outcome::Running => "running".to_string(),
+                Outcome::GoalReached => "goal_reached".to_string(),
+                Outcome::Contact(i) => format!("contact:{i}"),
+                Outcome::Timeout => "timeout".to_string(),
+            },
+            time_s: self.elapsed_s(),
+            path_length_m: self.path_length_m,
+            straight_m: (goal[0] - start[0]).hypot(goal[1] - start[1]),
+            distance_to_goal_m: self.distance_to_goal(),
+            x: p.x,
+            y: p.y,
+            revolutions: self.revolutions,
+            lockstep_timeouts,
         }
     }
 
