@@ -224,6 +224,8 @@ pub struct Mapper {
     dirty: Vec<bool>,
     /// Cells the glass memory covers, this revolution.
     glass_drawn: Vec<usize>,
+    /// Glass detected in this revolution (cell indices, sorted, unique).
+    glass_cells: Vec<usize>,
     /// Scratch flags for drawing the memory (all false between updates).
     glass_marked: Vec<bool>,
     reach: Vec<f32>,
@@ -320,6 +322,7 @@ impl Mapper {
             touched: Vec::with_capacity(n2),
             dirty: vec![false; n2],
             glass_drawn: Vec::new(),
+            glass_cells: Vec::new(),
             glass_marked: vec![false; n2],
             reach: vec![0.0; REACH_BINS],
             cell_range,
@@ -411,6 +414,73 @@ impl Mapper {
     /// Maps one revolution. `now_ns` is the revolution's stamp (ages the glass memory).
     pub fn update(&mut self, points: &[Point], odom: OdomInput, now_ns: u64) -> UpdateStats {
         let mut stats = UpdateStats::default();
+        self.reset();
+        // equations 1–2, the rings for the glass spike and the dual-return cues
+        self.bin(points, odom, &mut stats);
+        // glass seen in this revolution (Algorithm 1 and equation 6's layer difference)
+        self.detect_glass(points);
+        stats.glass_detected = self.glass_cells.len() as u32;
+        // the glass memory (equations 6 and 7)
+        self.remember_glass(odom, now_ns);
+        stats.glass_memory = self.memory.len() as u32;
+        // classes (equations 3–5) and cost
+        let surface_cue = self.params.surface_min_returns > 0;
+        self.classify(surface_cue);
+        let grid = self.params.grid;
+        if surface_cue {
+            // returns on a surface along the ring: a rock hidden in grass
+            self.mark_surfaces();
+            for t in 0..self.touched.len() {
+                let i = self.touched[t] as usize;
+                if self.surface_candidate[i] {
+                    self.surface_candidate[i] = false;
+                    if self.evidence[i].surface >= self.params.surface_min_returns {
+                        self.classes[i] = cell_class::SOLID;
+                        self.cost[i] = 255;
+                        self.surface_cells.push(i);
+                    }
+                }
+            }
+        }
+        stats.surface_found = self.surface_cells.len() as u32;
+        self.remember_surfaces(odom, now_ns);
+        stats.surface_memory = self.surface_kept.len() as u32;
+        self.remember_tall(odom, now_ns);
+        stats.tall_memory = self.tall_kept.len() as u32;
+        for &i in &self.glass_drawn {
+            if self.classes[i] != cell_class::SOLID {
+                self.classes[i] = cell_class::GLASS;
+                self.cost[i] = 255;
+            }
+        }
+        for &i in &self.glass_cells {
+            self.classes[i] = cell_class::GLASS;
+            self.cost[i] = 255;
+        }
+        // extrapolate panes to the solid structure that holds them; drawn afresh each revolution
+        // from the detections only, so an extrapolation never feeds the next one
+        self.glass_drawn.extend_from_slice(&self.glass_cells);
+        let added = glass::extend_to_solids(
+            &self.glass_drawn,
+            &self.classes,
+            grid,
+            EXTEND_LINK_M,
+            self.params.glass_extend_m,
+            &mut self.glass_marked,
+        );
+        for &i in &added {
+            self.classes[i] = cell_class::GLASS;
+            self.cost[i] = 255;
+        }
+        stats.glass_extended = added.len() as u32;
+        stats
+    }
+}
+
+
+impl Mapper {
+    /// Forgets the last revolution's cells, rings and reach.
+    fn reset(&mut self) {
         let m = self.bounds.len();
         for &i in &self.touched {
             let i = i as usize;
@@ -427,12 +497,17 @@ impl Mapper {
         for r in &mut self.last_rings {
             r.clear();
         }
+    }
+
+    /// Bins every point into its cell's layers (equations 1–2), de-skewed by the odometry's
+    /// (v, ω); collects the near-horizontal rings for the glass spike and the dual-return and
+    /// surface cues.
+    fn bin(&mut self, points: &[Point], odom: OdomInput, stats: &mut UpdateStats) {
+        let m = self.bounds.len();
         let surface_cue = self.params.surface_min_returns > 0;
         let grid = self.params.grid;
         let ground_z = -(self.params.sensor_height_m - self.params.ground_clearance_m) as f32;
-        let (below, above, zero, minus) =
-            (self.roles[0], self.roles[1], self.roles[2], self.roles[3]);
-        let zero_b = self.bounds[zero];
+        let zero_b = self.bounds[self.roles[2]];
         // De-skew: a revolution takes 0.05–0.2 s, in which a turning robot rotates by up to
         // several degrees. Each point moves into the robot frame at the revolution's end, from
         // its own firing time, with the odometry's (v, ω) (small-angle rotation, exact enough
@@ -591,10 +666,18 @@ impl Mapper {
                 }
             }
         }
+    }
+
+    /// Glass in this revolution: spikes along the near-horizontal rings (Algorithm 1 of
+    /// `cartographer-glass.txt`) in cells the −ε layer does not see (equation 6's layer
+    /// difference), into `self.glass_cells`.
+    fn detect_glass(&mut self, points: &[Point]) {
+        let (m, minus, grid) = (self.bounds.len(), self.roles[3], self.params.grid);
+        let mut glass_cells = std::mem::take(&mut self.glass_cells);
+        glass_cells.clear();
         // glass in this revolution: spikes along the near-horizontal rings (Algorithm 1) in cells
         // the −ε layer does not see (equation 6's layer difference)
         // rings stay in firing order: the azimuth grows (wrapping at 360°) along them
-        let mut glass_cells: Vec<usize> = Vec::new();
         let mut padded: Vec<RingReturn> = Vec::new();
         let mut index: Vec<Option<u32>> = Vec::new();
         for ring in &self.rings {
@@ -633,11 +716,17 @@ impl Mapper {
         }
         glass_cells.sort_unstable();
         glass_cells.dedup();
-        stats.glass_detected = glass_cells.len() as u32;
+        self.glass_cells = glass_cells;
+    }
+
+    /// Equations 6 and 7: this revolution's glass into the memory in the odometry frame, old
+    /// entries forgotten, the memory drawn around the robot.
+    fn remember_glass(&mut self, odom: OdomInput, now_ns: u64) {
+        let grid = self.params.grid;
         // the memory (equations 6 and 7)
         match odom {
             OdomInput::Fresh(Odom { pose, .. }) => {
-                for &i in &glass_cells {
+                for &i in &self.glass_cells {
                     let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
                     self.memory.add(&pose, f64::from(x), f64::from(y), now_ns);
                 }
@@ -660,7 +749,13 @@ impl Mapper {
                 &mut self.glass_marked,
             );
         }
-        stats.glass_memory = self.memory.len() as u32;
+    }
+
+    /// Equations 3–5: every cell free or unknown by the beams' reach, then each cell with
+    /// returns solid or passable by its layers' mean intensity and the cues.
+    fn classify(&mut self, surface_cue: bool) {
+        let (m, grid) = (self.bounds.len(), self.params.grid);
+        let (below, above, zero) = (self.roles[0], self.roles[1], self.roles[2]);
         // classes (equations 3–5) and cost: first free or unknown everywhere (one pass the
         // compiler can vectorise), then the cells with returns, then glass on top
         let reach_margin = grid.cell_m;
@@ -721,53 +816,6 @@ impl Mapper {
                 self.cost[i] = 255;
             }
         }
-        if surface_cue {
-            // returns on a surface along the ring: a rock hidden in grass
-            self.mark_surfaces();
-            for t in 0..self.touched.len() {
-                let i = self.touched[t] as usize;
-                if self.surface_candidate[i] {
-                    self.surface_candidate[i] = false;
-                    if self.evidence[i].surface >= self.params.surface_min_returns {
-                        self.classes[i] = cell_class::SOLID;
-                        self.cost[i] = 255;
-                        self.surface_cells.push(i);
-                    }
-                }
-            }
-        }
-        stats.surface_found = self.surface_cells.len() as u32;
-        self.remember_surfaces(odom, now_ns);
-        stats.surface_memory = self.surface_kept.len() as u32;
-        self.remember_tall(odom, now_ns);
-        stats.tall_memory = self.tall_kept.len() as u32;
-        for &i in &self.glass_drawn {
-            if self.classes[i] != cell_class::SOLID {
-                self.classes[i] = cell_class::GLASS;
-                self.cost[i] = 255;
-            }
-        }
-        for &i in &glass_cells {
-            self.classes[i] = cell_class::GLASS;
-            self.cost[i] = 255;
-        }
-        // extrapolate panes to the solid structure that holds them; drawn afresh each revolution
-        // from the detections only, so an extrapolation never feeds the next one
-        self.glass_drawn.extend_from_slice(&glass_cells);
-        let added = glass::extend_to_solids(
-            &self.glass_drawn,
-            &self.classes,
-            grid,
-            EXTEND_LINK_M,
-            self.params.glass_extend_m,
-            &mut self.glass_marked,
-        );
-        for &i in &added {
-            self.classes[i] = cell_class::GLASS;
-            self.cost[i] = 255;
-        }
-        stats.glass_extended = added.len() as u32;
-        stats
     }
 }
 
