@@ -6,12 +6,15 @@
 //! - [`route`]: a navigation function on the local map, so goal progress is measured around
 //!   obstacles rather than through them (beyond the paper);
 //! - [`dwa`]: the footprint clearance, the dynamic window and the trajectory scores (eq. 12);
-//! - [`Planner`]: the three in order, with their buffers, as the service and `mimnav eval` use
-//!   them.
+//! - [`Planner`]: the three in order, with their buffers;
+//! - [`pilot`]: the service's step around the planner (input freshness, the goal into the robot
+//!   frame, foliage fusion, the fail-safe), which the service, `mimnav eval` and the lock-step
+//!   runner drive alike.
 #![deny(missing_docs)]
 
 pub mod dwa;
 pub mod inflate;
+pub mod pilot;
 pub mod route;
 
 use mimnav_shared::config::{Config, InflationConfig};

@@ -1,357 +1,150 @@
 //! `mimnav-planner`: the planner service.
 //!
-//! Wiring only: every map on `map/plan` is inflated towards the goal and searched with the
-//! dynamic window, with the latest `odom` and `goal`; the result goes out on `cmd_vel`, valid for
-//! `robot.command_validity_s`. Fail safe: without a goal, with stale odometry, with no map for
-//! `planner.map_max_age_s`, or with no feasible motion, the command is zero velocity and its
-//! status says why — also between maps: the map topic has a deadline of `map_max_age_s`, so a
-//! silent mapper stops the robot within that time, and the stop is repeated every 100 ms. The
-//! status also goes to systemd (`STATUS=`), which keeps the watchdog pinged from this loop.
+//! Wiring only: `map/plan`, `odom`, `goal` and `foliage/alarm` go into the library's
+//! [`Pilot`], whose decisions go out on `cmd_vel`. Every rule (input freshness, the goal in the
+//! robot frame, foliage fusion, the fail-safe stops) is the pilot's; this file opens the topics,
+//! reads the clock and logs. The map topic has a deadline of `planner.map_max_age_s` and the
+//! loop a 100 ms tick, so a silent mapper stops the robot within that time and the stop is
+//! repeated. The decision's status also goes to systemd (`STATUS=`).
 
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::Result;
-use clap::Parser;
-use iceoryx2::prelude::*;
-use mimnav_planner::dwa::DwaOutcome;
-use mimnav_planner::{Planner, PlannerParams, confirm_obstacles};
-use mimnav_shared::cli::ServiceArgs;
+use mimnav_planner::pilot::{Decision, Pilot};
 use mimnav_shared::config::Config;
-use mimnav_shared::faults::Faults;
-use mimnav_shared::grid::GridSpec;
-use mimnav_shared::ipc::{self, Listening, Svc};
-use mimnav_shared::systemd::Notifier;
-use mimnav_shared::topics::{
-    FoliageHeader, Goal, Odometry, VelocityCommand, command_flags, command_status, foliage_class,
-};
+use mimnav_shared::ipc::{self, Listening, ValuePublisher};
+use mimnav_shared::service::{self, Health, Service, ServiceCli};
+use mimnav_shared::topics::{self, VelocityCommand};
 
-/// The planner: map/plan + odom + goal → cmd_vel.
-#[derive(Debug, Parser)]
+/// The planner: map/plan + odom + goal + foliage/alarm → cmd_vel.
+#[derive(Debug, clap::Parser)]
 #[command(name = "mimnav-planner", version)]
 struct Args {
     #[command(flatten)]
-    service: ServiceArgs,
+    service: mimnav_shared::cli::ServiceArgs,
+}
+
+impl ServiceCli for Args {
+    fn service_args(&self) -> &mimnav_shared::cli::ServiceArgs {
+        &self.service
+    }
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
-    let config = match args.service.load_or_exit("mimnav-planner", &[]) {
-        Ok(c) => c,
-        Err(code) => return code,
-    };
-    mimnav_shared::logging::init(&config.log.level);
-    // held until the service ends
-    let _cpu_latency = mimnav_shared::realtime::apply(&config);
-    mimnav_shared::cli::finish("mimnav-planner", run(&config).map(|()| ExitCode::SUCCESS))
+    service::main("mimnav-planner", |_args: Args, config| {
+        run(&config).map(|()| ExitCode::SUCCESS)
+    })
 }
 
-/// Publishes commands, numbering them and logging when their status changes.
-struct Commander {
-    publisher: ipc::ValuePublisher<VelocityCommand>,
-    seq: u64,
+/// Sends the pilot's decisions, logging the per-revolution timing and status changes.
+struct Sender {
+    publisher: ValuePublisher<VelocityCommand>,
     last_status: u8,
-    validity_ns: u64,
-    /// [`command_flags`] of the commands sent.
-    flags: u8,
-    /// What a `stale input` status is about, for the status line.
-    stale: &'static str,
-    /// (status, flags, stale) the status line was last written for.
-    shown: (u8, u8, &'static str),
-    sd: Notifier,
-    /// The last packet's receive time of the revolution the map being planned on came from
-    /// (0: none, or already logged), and when that map arrived here, monotonic ns: the debug
-    /// log's figures.
-    map_rx_mono_ns: u64,
-    map_received_mono_ns: u64,
 }
 
-impl Commander {
-    #[allow(clippy::too_many_arguments)]
+impl Sender {
+    /// Sends `d`; `map_times` (the revolution's last packet, the map's arrival; monotonic ns)
+    /// for a decision planned on a map.
     fn send(
         &mut self,
-        v: f64,
-        omega: f64,
-        status: u8,
-        source_stamp_ns: u64,
-        source_seq: u64,
-        now: u64,
-        faults: &mut Faults,
+        pilot: &mut Pilot,
+        d: &Decision,
+        map_times: Option<(u64, u64)>,
+        h: &mut Health,
     ) {
-        // stamped when it leaves, so the stack's latency includes the planning
-        let now = ipc::monotonic_ns().max(now);
-        if self.map_rx_mono_ns > 0 {
+        let sent = ipc::monotonic_ns(); // when it leaves: the stack's latency includes planning
+        let cmd = pilot.command(d, sent);
+        if let Err(e) = self.publisher.publish(cmd) {
+            h.faults
+                .record("publish_failed", std::time::Instant::now(), e);
+        }
+        if let Some((rx, arrived)) = map_times {
             tracing::debug!(
-                source_seq,
-                status,
+                source_seq = d.source_seq,
+                status = d.status,
                 // from the revolution's last packet to this map's arrival here, and the planning
-                waited_us = self
-                    .map_received_mono_ns
-                    .saturating_sub(self.map_rx_mono_ns)
-                    / 1000,
-                processing_us = now.saturating_sub(self.map_received_mono_ns) / 1000,
+                waited_us = arrived.saturating_sub(rx) / 1000,
+                processing_us = sent.saturating_sub(arrived) / 1000,
                 "command"
             );
-            // once per map: a later stale-input stop is not timed against it
-            self.map_rx_mono_ns = 0;
         }
-        let cmd = VelocityCommand {
-            seq: self.seq,
-            stamp_mono_ns: now,
-            source_stamp_ns,
-            source_seq,
-            valid_until_mono_ns: now + self.validity_ns,
-            v: v as f32,
-            omega: omega as f32,
-            status,
-            flags: self.flags,
-            reserved: [0; 6],
-        };
-        self.seq += 1;
-        if let Err(e) = self.publisher.publish(cmd) {
-            faults.record("publish_failed", Instant::now(), e);
+        if d.status != self.last_status {
+            tracing::info!(
+                status = d.status,
+                v = d.v,
+                omega = d.omega,
+                "command status changed"
+            );
+            self.last_status = d.status;
         }
-        if status != self.last_status {
-            tracing::info!(status, v, omega, "command status changed");
-            self.last_status = status;
-        }
-        let shown = (status, self.flags, self.stale);
-        if shown != self.shown {
-            self.shown = shown;
-            let what = match status {
-                command_status::DRIVING => "driving",
-                command_status::GOAL_REACHED => "goal reached: zero velocity",
-                command_status::BLOCKED => "blocked (no feasible motion): zero velocity",
-                command_status::NO_GOAL => "no goal: zero velocity",
-                _ => "",
-            };
-            let alarm = if self.flags & command_flags::FOLIAGE_ALARM != 0 {
-                "; foliage alarm"
-            } else {
-                ""
-            };
-            let line = if status == command_status::STALE_INPUT {
-                format!("stale input ({}): zero velocity{alarm}", self.stale)
-            } else {
-                format!("{what}{alarm}")
-            };
-            self.sd.status(&line);
-        }
+        h.sd.status(&d.describe()); // sent only when it changes
     }
 }
 
 fn run(config: &Config) -> Result<()> {
-    let node = ipc::node(config, "planner")?;
-    let plan_sub = ipc::plan_subscriber(&node)?;
-    let odom_sub = ipc::odom_subscriber(&node)?;
-    let goal_sub = ipc::goal_subscriber(&node)?;
-    let foliage_sub = ipc::foliage_subscriber(&node)?;
-    let cmd_pub = ipc::cmd_vel_publisher(&node)?;
-    let p = &config.planner;
-    let mut planner = Planner::new(PlannerParams::from_config(config));
-    tracing::info!(inflation = ?p.inflation, "topics open: {}", mimnav_shared::topics::CMD_VEL);
-    let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-        .create::<Svc>()
-        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
-    let sd = Notifier::from_env();
-    // a missed deadline on the map is stale input at once, not at the next tick
-    let plan_guard = waitset
-        .attach_deadline(
-            plan_sub.listener(),
-            Duration::from_secs_f64(p.map_max_age_s),
-        )
-        .map_err(|e| anyhow::anyhow!("cannot wait on map/plan: {e:?}"))?;
-    let _tick = waitset
-        .attach_interval(Duration::from_millis(100).min(sd.tick()))
-        .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
-    let validity_ns = (config.robot.command_validity_s * 1e9) as u64;
-    let map_max_age_ns = (p.map_max_age_s * 1e9) as u64;
-    let odom_max_age_ns = (p.odom_max_age_s * 1e9) as u64;
-    let goal_max_age_ns = (p.goal_max_age_s * 1e9) as u64;
-    let mut faults = Faults::new(Duration::from_secs(5));
-    let (mut odom, mut goal): (Option<Odometry>, Option<Goal>) = (None, None);
-    let mut last_map_mono = 0u64;
-    let mut classes = Vec::new();
-    // the latest foliage verdict: its header and its obstacle returns
-    let mut foliage: Option<(FoliageHeader, Vec<(f32, f32)>)> = None;
-    let foliage_max_age_ns = (p.foliage_max_age_s * 1e9) as u64;
-    let mut commander = Commander {
-        publisher: cmd_pub,
-        seq: 0,
+    let svc = Service::open(config, "planner")?;
+    let (node, p) = (svc.node(), &config.planner);
+    let plan_sub = ipc::plan_subscriber(node)?;
+    let odom_sub = ipc::odom_subscriber(node)?;
+    let goal_sub = ipc::goal_subscriber(node)?;
+    let foliage_sub = ipc::foliage_subscriber(node)?;
+    let mut sender = Sender {
+        publisher: ipc::cmd_vel_publisher(node)?,
         last_status: u8::MAX,
-        validity_ns,
-        flags: 0,
-        stale: "",
-        shown: (u8::MAX, 0, ""),
-        sd,
-        map_rx_mono_ns: 0,
-        map_received_mono_ns: 0,
     };
-    commander.sd.ready("waiting for map/plan");
-    let result = ipc::run_waitset(&waitset, |id| {
-        commander.sd.alive(Instant::now());
-        let now = ipc::monotonic_ns();
+    let mut pilot = Pilot::from_config(config);
+    tracing::info!(inflation = ?p.inflation, "topics open: {}", topics::CMD_VEL);
+    // a missed deadline on the map is stale input at once, not at the next tick
+    let plan_guard = svc.on_deadline(&plan_sub, Duration::from_secs_f64(p.map_max_age_s))?;
+    let _tick = svc.every(Duration::from_millis(100))?;
+    let mut health = svc.health();
+    svc.run(&mut health, "waiting for map/plan", |turn, h| {
         let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());
+        let now = ipc::monotonic_ns();
         loop {
             match foliage_sub.receive() {
-                Ok(Some(sample)) => {
-                    let obstacles = sample
-                        .payload()
-                        .iter()
-                        .filter(|r| r.class == foliage_class::OBSTACLE)
-                        .map(|r| (r.angle_rad, r.range_m))
-                        .collect();
-                    foliage = Some((*sample.user_header(), obstacles));
-                }
+                Ok(Some(s)) => pilot.foliage(s.user_header(), s.payload()),
                 Ok(None) => break,
                 Err(e) => {
-                    faults.record("receive_failed", Instant::now(), e);
+                    h.faults.record("receive_failed", turn.now, e);
                     break;
                 }
             }
         }
-        if let Ok(Some(o)) = odom_sub.latest() {
-            odom = Some(o);
-        }
-        match goal_sub.latest() {
-            Ok(Some(g)) => {
-                tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal");
-                goal = Some(g);
+        match odom_sub.latest() {
+            Ok(Some(o)) => {
+                _ = pilot
+                    .odom(&o)
+                    .map_err(|e| h.faults.record("bad_odom", turn.now, e))
             }
             Ok(None) => {}
-            Err(e) => {
-                faults.record("receive_failed", Instant::now(), e);
-            }
+            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
+        }
+        match goal_sub.latest() {
+            Ok(Some(g)) => match pilot.goal(&g) {
+                Ok(()) => tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal"),
+                Err(e) => _ = h.faults.record("bad_goal", turn.now, e),
+            },
+            Ok(None) => {}
+            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
         }
         let mut planned = false;
         while let Ok(Some(sample)) = plan_sub.receive() {
-            let h = *sample.user_header();
-            last_map_mono = now;
-            commander.map_received_mono_ns = ipc::monotonic_ns();
-            commander.map_rx_mono_ns = h.rx_mono_ns;
-            classes.clear();
-            classes.extend(sample.payload().iter().map(|c| c.class));
+            let (header, arrived) = (*sample.user_header(), ipc::monotonic_ns());
+            let d = pilot.on_map(&header, sample.payload().iter().map(|c| c.class), now);
             drop(sample);
             planned = true;
-            let grid = GridSpec {
-                cells: h.cells as usize,
-                cell_m: h.cell_m,
-            };
-            if goal_max_age_ns > 0
-                && goal.is_some_and(|g| now.saturating_sub(g.stamp_mono_ns) > goal_max_age_ns)
-            {
-                goal = None;
+            if let Some(stale) = d.stale {
+                h.faults.record("stale_input", turn.now, stale.reason());
             }
-            let Some(g) = goal else {
-                commander.send(
-                    0.0,
-                    0.0,
-                    command_status::NO_GOAL,
-                    h.stamp_ns,
-                    h.source_seq,
-                    now,
-                    &mut faults,
-                );
-                continue;
-            };
-            let Some(o) = odom.filter(|o| now.saturating_sub(o.rx_mono_ns) <= odom_max_age_ns)
-            else {
-                faults.record(
-                    "stale_odom",
-                    Instant::now(),
-                    "odometry is missing or stale: stopping",
-                );
-                commander.stale = if odom.is_some() {
-                    "odometry older than planner.odom_max_age_s"
-                } else {
-                    "no odometry"
-                };
-                commander.send(
-                    0.0,
-                    0.0,
-                    command_status::STALE_INPUT,
-                    h.stamp_ns,
-                    h.source_seq,
-                    now,
-                    &mut faults,
-                );
-                continue;
-            };
-            // the goal in the robot frame
-            let (s, c) = o.yaw.sin_cos();
-            let (dx, dy) = (g.x - o.x, g.y - o.y);
-            let (gx, gy) = (c * dx + s * dy, -s * dx + c * dy);
-            if gx.hypot(gy) <= g.tolerance_m.max(0.01) {
-                commander.send(
-                    0.0,
-                    0.0,
-                    command_status::GOAL_REACHED,
-                    h.stamp_ns,
-                    h.source_seq,
-                    now,
-                    &mut faults,
-                );
-                continue;
-            }
-            // obstacles the foliage classifier confirms are solid (a trunk hidden in grass)
-            commander.flags = 0;
-            if p.use_foliage
-                && let Some((fh, obstacles)) = &foliage
-                && now.saturating_sub(fh.rx_mono_ns) <= foliage_max_age_ns
-            {
-                if fh.alarm != 0 {
-                    commander.flags |= command_flags::FOLIAGE_ALARM;
-                }
-                confirm_obstacles(&mut classes, grid, obstacles.iter().copied());
-            }
-            match planner.plan(&classes, grid, f64::from(o.v), f64::from(o.omega), (gx, gy)) {
-                DwaOutcome::Drive { v, omega, .. } => commander.send(
-                    v,
-                    omega,
-                    command_status::DRIVING,
-                    h.stamp_ns,
-                    h.source_seq,
-                    now,
-                    &mut faults,
-                ),
-                DwaOutcome::Blocked => commander.send(
-                    0.0,
-                    0.0,
-                    command_status::BLOCKED,
-                    h.stamp_ns,
-                    h.source_seq,
-                    now,
-                    &mut faults,
-                ),
-            }
+            sender.send(&mut pilot, &d, Some((header.rx_mono_ns, arrived)), h);
         }
-        if !planned
-            && (id.has_missed_deadline(&plan_guard)
-                || now.saturating_sub(last_map_mono) > map_max_age_ns)
-        {
+        if !planned && let Some(d) = pilot.on_silence(now, turn.missed(&plan_guard)) {
             // no map for too long: keep the robot stopped, and say why
-            commander.stale = "no map on map/plan for planner.map_max_age_s";
-            commander.send(
-                0.0,
-                0.0,
-                command_status::STALE_INPUT,
-                0,
-                0,
-                now,
-                &mut faults,
-            );
+            sender.send(&mut pilot, &d, None, h);
         }
-        CallbackProgression::Continue
-    });
-    commander.sd.stopping("stopping");
-    match result {
-        Ok(r) => tracing::info!(
-            commands = commander.seq,
-            "stopping ({r:?}); faults: {}",
-            faults.summary()
-        ),
-        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
-    }
+    })?;
+    tracing::info!(commands = pilot.commands(), "planner stopped");
     Ok(())
 }

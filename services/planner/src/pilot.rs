@@ -1,0 +1,405 @@
+//! The planner service's step: everything between receiving its topics and publishing `cmd_vel`,
+//! without IPC and without reading a clock (every call is given `now`, monotonic ns).
+//!
+//! The service (`main.rs`), `mimnav eval` and the lock-step runner all drive this type, so the
+//! fail-safe rules below are the ones every figure measures:
+//!
+//! - **no goal** (none received, or older than `planner.goal_max_age_s`): zero velocity,
+//!   [`command_status::NO_GOAL`];
+//! - **stale input**: odometry missing or older than `planner.odom_max_age_s`, or no map for
+//!   `planner.map_max_age_s` (the service's deadline on `map/plan` and its 100 ms tick ask
+//!   [`Pilot::on_silence`]), or a map whose header does not describe its payload: zero
+//!   velocity, [`command_status::STALE_INPUT`], with the reason in [`Decision::stale`];
+//! - **non-finite input is refused** where it arrives ([`Pilot::odom`], [`Pilot::goal`]): it never
+//!   replaces the last good message, so it ages into stale input instead of steering;
+//! - **goal reached**: within the goal's tolerance, zero velocity;
+//! - **blocked**: no feasible motion, or a planner result that is not finite: zero velocity;
+//! - **command expiry**: every command is valid for `robot.command_validity_s` from when it is
+//!   sent ([`Pilot::command`]); a base stops once `valid_until_mono_ns` passes;
+//! - **foliage**: the obstacles of a verdict no older than `planner.foliage_max_age_s` are solid
+//!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
+
+use mimnav_shared::config::Config;
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::pose::{Pose2Ext, odom_pose};
+use mimnav_shared::topics::{
+    FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
+    command_status, foliage_class,
+};
+
+use crate::dwa::DwaOutcome;
+use crate::{Planner, PlannerParams, confirm_obstacles};
+
+/// The freshness rules and the command's validity, in ns.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PilotParams {
+    /// How long a command is valid after it is sent (`robot.command_validity_s`).
+    pub validity_ns: u64,
+    /// A map older than this is stale (`planner.map_max_age_s`).
+    pub map_max_age_ns: u64,
+    /// Odometry older than this is stale (`planner.odom_max_age_s`).
+    pub odom_max_age_ns: u64,
+    /// A goal older than this is dropped; 0: never (`planner.goal_max_age_s`).
+    pub goal_max_age_ns: u64,
+    /// A foliage verdict older than this is ignored (`planner.foliage_max_age_s`).
+    pub foliage_max_age_ns: u64,
+    /// Whether the foliage classifier's obstacles are solid for the planner
+    /// (`planner.use_foliage`).
+    pub use_foliage: bool,
+}
+
+fn ns(s: f64) -> u64 {
+    (s * 1e9) as u64
+}
+
+impl PilotParams {
+    /// The settings of `[planner]` and `robot.command_validity_s`.
+    pub fn from_config(config: &Config) -> Self {
+        let p = &config.planner;
+        PilotParams {
+            validity_ns: ns(config.robot.command_validity_s),
+            map_max_age_ns: ns(p.map_max_age_s),
+            odom_max_age_ns: ns(p.odom_max_age_s),
+            goal_max_age_ns: ns(p.goal_max_age_s),
+            foliage_max_age_ns: ns(p.foliage_max_age_s),
+            use_foliage: p.use_foliage,
+        }
+    }
+}
+
+impl Default for PilotParams {
+    fn default() -> Self {
+        PilotParams::from_config(&Config::default())
+    }
+}
+
+/// Why the robot is stopped for stale input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stale {
+    /// No odometry received yet (or only non-finite odometry).
+    NoOdometry,
+    /// The last good odometry is older than `planner.odom_max_age_s`.
+    OldOdometry,
+    /// No map on `map/plan` for `planner.map_max_age_s`.
+    NoMap,
+    /// A map whose header does not match its payload (cell count, cell size).
+    BadMap,
+}
+
+impl Stale {
+    /// What to tell a person.
+    pub fn reason(self) -> &'static str {
+        match self {
+            Stale::NoOdometry => "no odometry",
+            Stale::OldOdometry => "odometry older than planner.odom_max_age_s",
+            Stale::NoMap => "no map on map/plan for planner.map_max_age_s",
+            Stale::BadMap => "a map whose header does not match its cells",
+        }
+    }
+}
+
+/// What the pilot decided: the velocity to command and why.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Decision {
+    /// Forward speed, m/s (finite).
+    pub v: f64,
+    /// Turn rate, rad/s (finite).
+    pub omega: f64,
+    /// [`command_status`].
+    pub status: u8,
+    /// [`command_flags`].
+    pub flags: u8,
+    /// With [`command_status::STALE_INPUT`]: what is stale.
+    pub stale: Option<Stale>,
+    /// The map's revolution: its sensor stamp and sequence number (0 without a map).
+    pub source_stamp_ns: u64,
+    /// See `source_stamp_ns`.
+    pub source_seq: u64,
+}
+
+impl Decision {
+    fn stop(status: u8, flags: u8, stale: Option<Stale>, map: Option<&MapHeader>) -> Decision {
+        Decision {
+            v: 0.0,
+            omega: 0.0,
+            status,
+            flags,
+            stale,
+            source_stamp_ns: map.map_or(0, |h| h.stamp_ns),
+            source_seq: map.map_or(0, |h| h.source_seq),
+        }
+    }
+
+    /// One line for a person (and systemd's `STATUS=`).
+    pub fn describe(&self) -> String {
+        let what = match self.status {
+            command_status::DRIVING => "driving".to_string(),
+            command_status::GOAL_REACHED => "goal reached: zero velocity".to_string(),
+            command_status::BLOCKED => "blocked (no feasible motion): zero velocity".to_string(),
+            command_status::NO_GOAL => "no goal: zero velocity".to_string(),
+            command_status::STALE_INPUT => format!(
+                "stale input ({}): zero velocity",
+                self.stale.map_or("?", Stale::reason)
+            ),
+            s => format!("status {s}"),
+        };
+        if self.flags & command_flags::FOLIAGE_ALARM != 0 {
+            what + "; foliage alarm"
+        } else {
+            what
+        }
+    }
+}
+
+/// An input refused because it cannot be acted on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Refused {
+    /// Odometry with a non-finite pose or velocity.
+    #[error("odometry with a non-finite pose or velocity (seq {0}): ignored")]
+    Odometry(u64),
+    /// A goal with a non-finite position or a tolerance that is not finite and ≥ 0.
+    #[error("a goal with a non-finite position or a bad tolerance (seq {0}): ignored")]
+    Goal(u64),
+}
+
+/// The latest foliage verdict: its header and its obstacle returns (bearing, range).
+#[derive(Debug, Default)]
+struct Foliage {
+    header: Option<FoliageHeader>,
+    obstacles: Vec<(f32, f32)>,
+}
+
+/// The planner service's state between messages: the latest odometry, goal and foliage verdict,
+/// when the last map came, and the planner with its buffers.
+#[derive(Debug)]
+pub struct Pilot {
+    planner: Planner,
+    params: PilotParams,
+    odom: Option<Odometry>,
+    goal: Option<Goal>,
+    foliage: Foliage,
+    last_map_ns: Option<u64>,
+    classes: Vec<u8>,
+    seq: u64,
+}
+
+impl Pilot {
+    /// A pilot planning with `planner` under the rules `params`.
+    pub fn new(planner: PlannerParams, params: PilotParams) -> Self {
+        Pilot {
+            planner: Planner::new(planner),
+            params,
+            odom: None,
+            goal: None,
+            foliage: Foliage::default(),
+            last_map_ns: None,
+            classes: Vec::new(),
+            seq: 0,
+        }
+    }
+
+    /// The pilot of the config's `[planner]` and `[robot]`.
+    pub fn from_config(config: &Config) -> Self {
+        Pilot::new(
+            PlannerParams::from_config(config),
+            PilotParams::from_config(config),
+        )
+    }
+
+    /// The rules.
+    pub fn params(&self) -> &PilotParams {
+        &self.params
+    }
+
+    /// The planner (its last cost map and route).
+    pub fn planner(&self) -> &Planner {
+        &self.planner
+    }
+
+    /// The map the last plan used: the mapper's classes with the foliage obstacles made solid.
+    pub fn classes(&self) -> &[u8] {
+        &self.classes
+    }
+
+    /// The latest good goal.
+    pub fn current_goal(&self) -> Option<&Goal> {
+        self.goal.as_ref()
+    }
+
+    /// Commands numbered so far.
+    pub fn commands(&self) -> u64 {
+        self.seq
+    }
+
+    /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
+    /// finite.
+    pub fn odom(&mut self, o: &Odometry) -> Result<(), Refused> {
+        if odom_pose(o).is_none() || !o.v.is_finite() || !o.omega.is_finite() {
+            return Err(Refused::Odometry(o.seq));
+        }
+        self.odom = Some(*o);
+        Ok(())
+    }
+
+    /// Takes a new goal; refuses (and keeps the previous one) when a number is not finite or the
+    /// tolerance is negative.
+    pub fn goal(&mut self, g: &Goal) -> Result<(), Refused> {
+        if !(g.x.is_finite() && g.y.is_finite() && g.tolerance_m.is_finite()) || g.tolerance_m < 0.0
+        {
+            return Err(Refused::Goal(g.seq));
+        }
+        self.goal = Some(*g);
+        Ok(())
+    }
+
+    /// Takes the latest foliage verdict (its obstacle returns; non-finite ones are skipped when
+    /// they are drawn).
+    pub fn foliage(&mut self, header: &FoliageHeader, returns: &[FoliageReturn]) {
+        self.foliage.header = Some(*header);
+        self.foliage.obstacles.clear();
+        self.foliage.obstacles.extend(
+            (returns.iter())
+                .filter(|r| r.class == foliage_class::OBSTACLE)
+                .map(|r| (r.angle_rad, r.range_m)),
+        );
+    }
+
+    /// Plans on a map that arrived at `now`: `classes` are its cells' classes in order.
+    pub fn on_map(
+        &mut self,
+        header: &MapHeader,
+        classes: impl IntoIterator<Item = u8>,
+        now: u64,
+    ) -> Decision {
+        self.classes.clear();
+        self.classes.extend(classes);
+        let grid = GridSpec {
+            cells: header.cells as usize,
+            cell_m: header.cell_m,
+        };
+        if grid.is_empty()
+            || !(header.cell_m.is_finite() && header.cell_m > 0.0)
+            || grid.len() != self.classes.len()
+        {
+            // not counted as a map: a silent mapper and a broken one stop the robot alike
+            return Decision::stop(
+                command_status::STALE_INPUT,
+                0,
+                Some(Stale::BadMap),
+                Some(header),
+            );
+        }
+        self.last_map_ns = Some(now);
+        let p = self.params;
+        if p.goal_max_age_ns > 0
+            && (self.goal).is_some_and(|g| now.saturating_sub(g.stamp_mono_ns) > p.goal_max_age_ns)
+        {
+            self.goal = None;
+        }
+        let Some(goal) = self.goal else {
+            return Decision::stop(command_status::NO_GOAL, 0, None, Some(header));
+        };
+        let odom = match self.odom {
+            None => {
+                return Decision::stop(
+                    command_status::STALE_INPUT,
+                    0,
+                    Some(Stale::NoOdometry),
+                    Some(header),
+                );
+            }
+            Some(o) if now.saturating_sub(o.rx_mono_ns) > p.odom_max_age_ns => {
+                return Decision::stop(
+                    command_status::STALE_INPUT,
+                    0,
+                    Some(Stale::OldOdometry),
+                    Some(header),
+                );
+            }
+            Some(o) => o,
+        };
+        // refused on arrival when not finite
+        let Some(pose) = odom_pose(&odom) else {
+            return Decision::stop(
+                command_status::STALE_INPUT,
+                0,
+                Some(Stale::NoOdometry),
+                Some(header),
+            );
+        };
+        let (gx, gy) = pose.to_local(goal.x, goal.y);
+        if gx.hypot(gy) <= goal.tolerance_m.max(0.01) {
+            return Decision::stop(command_status::GOAL_REACHED, 0, None, Some(header));
+        }
+        // obstacles the foliage classifier confirms are solid (a trunk hidden in grass)
+        let mut flags = 0;
+        if p.use_foliage
+            && let Some(fh) = &self.foliage.header
+            && now.saturating_sub(fh.rx_mono_ns) <= p.foliage_max_age_ns
+        {
+            if fh.alarm != 0 {
+                flags |= command_flags::FOLIAGE_ALARM;
+            }
+            confirm_obstacles(
+                &mut self.classes,
+                grid,
+                self.foliage.obstacles.iter().copied(),
+            );
+        }
+        match self.planner.plan(
+            &self.classes,
+            grid,
+            f64::from(odom.v),
+            f64::from(odom.omega),
+            (gx, gy),
+        ) {
+            DwaOutcome::Drive { v, omega, .. } if v.is_finite() && omega.is_finite() => Decision {
+                v,
+                omega,
+                status: command_status::DRIVING,
+                flags,
+                stale: None,
+                source_stamp_ns: header.stamp_ns,
+                source_seq: header.source_seq,
+            },
+            _ => Decision::stop(command_status::BLOCKED, flags, None, Some(header)),
+        }
+    }
+
+    /// Between maps (a missed deadline on `map/plan`, or the periodic tick): the stop to send
+    /// when no map came for `planner.map_max_age_s` (or `deadline_missed`), else nothing.
+    pub fn on_silence(&self, now: u64, deadline_missed: bool) -> Option<Decision> {
+        let silent = deadline_missed
+            || self
+                .last_map_ns
+                .is_none_or(|t| now.saturating_sub(t) > self.params.map_max_age_ns);
+        silent.then(|| Decision::stop(command_status::STALE_INPUT, 0, Some(Stale::NoMap), None))
+    }
+
+    /// The message for `decision`, sent at `sent` (monotonic ns): numbered, valid until
+    /// `sent + robot.command_validity_s`, and never carrying a non-finite number.
+    pub fn command(&mut self, decision: &Decision, sent: u64) -> VelocityCommand {
+        let finite = decision.v.is_finite() && decision.omega.is_finite();
+        let cmd = VelocityCommand {
+            seq: self.seq,
+            stamp_mono_ns: sent,
+            source_stamp_ns: decision.source_stamp_ns,
+            source_seq: decision.source_seq,
+            valid_until_mono_ns: sent.saturating_add(self.params.validity_ns),
+            v: if finite { decision.v as f32 } else { 0.0 },
+            omega: if finite { decision.omega as f32 } else { 0.0 },
+            status: if finite {
+                decision.status
+            } else {
+                command_status::BLOCKED
+            },
+            flags: decision.flags,
+            reserved: [0; 6],
+        };
+        self.seq += 1;
+        cmd
+    }
+}
+
+#[cfg(test)]
+mod tests;

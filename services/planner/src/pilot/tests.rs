@@ -1,0 +1,401 @@
+//! Every fail-safe rule of the planner service, without IPC or root.
+
+use super::*;
+use mimnav_shared::topics::{MapHeader, cell_class};
+
+const S: u64 = 1_000_000_000;
+const MS: u64 = 1_000_000;
+
+fn grid() -> GridSpec {
+    GridSpec {
+        cells: 100,
+        cell_m: 0.1,
+    }
+}
+
+fn header(seq: u64) -> MapHeader {
+    let g = grid();
+    MapHeader {
+        seq,
+        source_seq: seq + 100,
+        stamp_ns: seq * 200 * MS,
+        cells: g.cells as u32,
+        cell_m: g.cell_m,
+        layers: 4,
+        ..MapHeader::default()
+    }
+}
+
+fn free() -> Vec<u8> {
+    vec![cell_class::FREE; grid().len()]
+}
+
+fn odom(at: u64) -> Odometry {
+    Odometry {
+        seq: 1,
+        stamp_ns: at,
+        rx_mono_ns: at,
+        ..Odometry::default()
+    }
+}
+
+fn goal(x: f64, y: f64, at: u64) -> Goal {
+    Goal {
+        seq: 1,
+        stamp_mono_ns: at,
+        x,
+        y,
+        tolerance_m: 0.3,
+    }
+}
+
+/// A pilot with a goal 3 m ahead and fresh odometry at `t`.
+fn driving(params: PilotParams, t: u64) -> Pilot {
+    let mut p = Pilot::new(PlannerParams::default(), params);
+    p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
+    p.odom(&odom(t)).expect("good odometry");
+    p
+}
+
+#[test]
+fn without_a_goal_the_robot_stands() {
+    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    p.odom(&odom(10 * S)).expect("good odometry");
+    let d = p.on_map(&header(1), free(), 10 * S);
+    assert_eq!(
+        (d.status, d.v, d.omega),
+        (command_status::NO_GOAL, 0.0, 0.0)
+    );
+    assert_eq!((d.source_seq, d.source_stamp_ns), (101, 200 * MS));
+}
+
+#[test]
+fn fresh_inputs_and_an_open_map_drive_towards_the_goal() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    let d = p.on_map(&header(1), free(), t + 50 * MS);
+    assert_eq!(d.status, command_status::DRIVING, "{d:?}");
+    assert!(d.v > 0.0 && d.omega.abs() < 0.2, "{d:?}");
+    assert_eq!(d.stale, None);
+}
+
+#[test]
+fn the_goal_is_brought_into_the_robot_frame() {
+    // the robot at (5, 5) facing −y: a goal at (5, 2) is straight ahead, one at (8, 5) to its left
+    let t = 10 * S;
+    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let o = Odometry {
+        x: 5.0,
+        y: 5.0,
+        yaw: -std::f64::consts::FRAC_PI_2,
+        ..odom(t)
+    };
+    p.odom(&o).expect("good odometry");
+    p.goal(&goal(5.0, 2.0, t)).expect("a good goal");
+    let ahead = p.on_map(&header(1), free(), t);
+    assert_eq!(ahead.status, command_status::DRIVING);
+    assert!(ahead.omega.abs() < 0.2, "{ahead:?}");
+    p.goal(&goal(8.0, 5.0, t)).expect("a good goal");
+    let left = p.on_map(&header(2), free(), t);
+    assert!(left.omega > 0.3, "a goal on the left turns left: {left:?}");
+}
+
+#[test]
+fn missing_or_old_odometry_stops_the_robot() {
+    let t = 10 * S;
+    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
+    let d = p.on_map(&header(1), free(), t);
+    assert_eq!(
+        (d.status, d.stale),
+        (command_status::STALE_INPUT, Some(Stale::NoOdometry))
+    );
+    p.odom(&odom(t)).expect("good odometry");
+    let max = p.params().odom_max_age_ns;
+    let d = p.on_map(&header(2), free(), t + max);
+    assert_eq!(
+        d.status,
+        command_status::DRIVING,
+        "exactly the limit is fresh"
+    );
+    let d = p.on_map(&header(3), free(), t + max + 1);
+    assert_eq!(
+        (d.status, d.stale, d.v, d.omega),
+        (
+            command_status::STALE_INPUT,
+            Some(Stale::OldOdometry),
+            0.0,
+            0.0
+        )
+    );
+    assert!(d.describe().contains("odom_max_age_s"), "{}", d.describe());
+}
+
+#[test]
+fn non_finite_odometry_is_refused_and_ages_into_a_stop() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    for bad in [
+        Odometry {
+            x: f64::NAN,
+            ..odom(t + S)
+        },
+        Odometry {
+            yaw: f64::INFINITY,
+            ..odom(t + S)
+        },
+        Odometry {
+            v: f32::NAN,
+            ..odom(t + S)
+        },
+        Odometry {
+            omega: f32::NEG_INFINITY,
+            ..odom(t + S)
+        },
+    ] {
+        assert_eq!(p.odom(&bad), Err(Refused::Odometry(1)));
+    }
+    // the good odometry of t is kept, and is now a second old
+    let d = p.on_map(&header(1), free(), t + S);
+    assert_eq!(d.stale, Some(Stale::OldOdometry));
+    assert!(d.v == 0.0 && d.omega == 0.0);
+}
+
+#[test]
+fn a_non_finite_goal_is_refused_and_the_last_good_one_kept() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    for bad in [
+        goal(f64::NAN, 0.0, t),
+        goal(0.0, f64::INFINITY, t),
+        Goal {
+            tolerance_m: f64::NAN,
+            ..goal(1.0, 0.0, t)
+        },
+        Goal {
+            tolerance_m: -1.0,
+            ..goal(1.0, 0.0, t)
+        },
+    ] {
+        assert_eq!(p.goal(&bad), Err(Refused::Goal(1)));
+    }
+    assert_eq!(p.current_goal().map(|g| g.x), Some(3.0));
+    let d = p.on_map(&header(1), free(), t);
+    assert_eq!(d.status, command_status::DRIVING);
+    assert!(d.v.is_finite() && d.omega.is_finite());
+}
+
+#[test]
+fn a_goal_expires_after_goal_max_age() {
+    let t = 10 * S;
+    let params = PilotParams {
+        goal_max_age_ns: 2 * S,
+        ..PilotParams::default()
+    };
+    let mut p = driving(params, t);
+    p.odom(&odom(t + 2 * S)).expect("good odometry");
+    assert_eq!(
+        p.on_map(&header(1), free(), t + 2 * S).status,
+        command_status::DRIVING
+    );
+    p.odom(&odom(t + 3 * S)).expect("good odometry");
+    let d = p.on_map(&header(2), free(), t + 2 * S + 1);
+    assert_eq!(d.status, command_status::NO_GOAL);
+    assert!(p.current_goal().is_none(), "an expired goal is dropped");
+    // 0: goals never expire
+    let mut p = driving(PilotParams::default(), t);
+    p.odom(&odom(t + 3600 * S)).expect("good odometry");
+    assert_eq!(
+        p.on_map(&header(1), free(), t + 3600 * S).status,
+        command_status::DRIVING
+    );
+}
+
+#[test]
+fn within_the_goal_tolerance_the_robot_stops() {
+    let t = 10 * S;
+    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    p.odom(&Odometry { x: 2.8, ..odom(t) })
+        .expect("good odometry");
+    p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
+    let d = p.on_map(&header(1), free(), t);
+    assert_eq!(
+        (d.status, d.v, d.omega),
+        (command_status::GOAL_REACHED, 0.0, 0.0)
+    );
+}
+
+#[test]
+fn no_map_for_map_max_age_stops_the_robot() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    // before any map
+    let d = p.on_silence(t, false).expect("no map yet is stale");
+    assert_eq!(
+        (d.status, d.stale),
+        (command_status::STALE_INPUT, Some(Stale::NoMap))
+    );
+    p.on_map(&header(1), free(), t);
+    let max = p.params().map_max_age_ns;
+    assert_eq!(p.on_silence(t + max, false), None, "a map just in time");
+    assert!(p.on_silence(t + max + 1, false).is_some(), "a map too old");
+    assert!(
+        p.on_silence(t + 1, true).is_some(),
+        "the deadline on map/plan"
+    );
+}
+
+#[test]
+fn a_map_that_does_not_match_its_header_stops_the_robot_and_is_not_a_map() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    let short = vec![cell_class::FREE; grid().len() - 1];
+    let d = p.on_map(&header(1), short, t);
+    assert_eq!(
+        (d.status, d.stale),
+        (command_status::STALE_INPUT, Some(Stale::BadMap))
+    );
+    let nan = MapHeader {
+        cell_m: f32::NAN,
+        ..header(2)
+    };
+    assert_eq!(p.on_map(&nan, free(), t).stale, Some(Stale::BadMap));
+    let empty = MapHeader {
+        cells: 0,
+        ..header(3)
+    };
+    assert_eq!(p.on_map(&empty, Vec::new(), t).stale, Some(Stale::BadMap));
+    // broken maps do not keep the silence rule quiet
+    assert!(
+        p.on_silence(t + p.params().map_max_age_ns + 1, false)
+            .is_some()
+    );
+}
+
+#[test]
+fn a_walled_in_robot_is_blocked() {
+    let t = 10 * S;
+    let mut p = driving(PilotParams::default(), t);
+    let solid = vec![cell_class::SOLID; grid().len()];
+    let d = p.on_map(&header(1), solid, t);
+    assert_eq!(
+        (d.status, d.v, d.omega),
+        (command_status::BLOCKED, 0.0, 0.0)
+    );
+}
+
+/// A foliage verdict with a row of obstacle returns 0.8 m ahead, across the way, at `at`.
+fn rock_ahead(at: u64) -> (FoliageHeader, Vec<FoliageReturn>) {
+    let returns: Vec<FoliageReturn> = (-8..=8)
+        .map(|k| {
+            let y = k as f32 * 0.05;
+            FoliageReturn {
+                angle_rad: y.atan2(0.8),
+                range_m: 0.8f32.hypot(y),
+                class: foliage_class::OBSTACLE,
+                reserved: [0; 3],
+            }
+        })
+        .chain([FoliageReturn {
+            angle_rad: 1.0,
+            range_m: 2.0,
+            class: foliage_class::FOLIAGE,
+            reserved: [0; 3],
+        }])
+        .collect();
+    let header = FoliageHeader {
+        rx_mono_ns: at,
+        alarm: 1,
+        obstacles: 17,
+        ..FoliageHeader::default()
+    };
+    (header, returns)
+}
+
+#[test]
+fn fresh_foliage_obstacles_are_solid_and_stale_ones_ignored() {
+    let t = 10 * S;
+    let grass = vec![cell_class::PASSABLE; grid().len()];
+    let straight = |d: &Decision| d.status == command_status::DRIVING && d.omega.abs() < 0.05;
+    // the way straight on, without a verdict
+    let mut p = driving(PilotParams::default(), t);
+    let clear = p.on_map(&header(1), grass.clone(), t);
+    assert!(straight(&clear), "{clear:?}");
+    assert_eq!(clear.flags, 0);
+    // a fresh verdict: the rock is solid for the planner, and the alarm is flagged
+    let (h, r) = rock_ahead(t);
+    p.foliage(&h, &r);
+    let fresh = p.on_map(&header(2), grass.clone(), t + 100 * MS);
+    assert!(!straight(&fresh), "{fresh:?}");
+    assert_eq!(fresh.flags, command_flags::FOLIAGE_ALARM);
+    let solid = p
+        .classes()
+        .iter()
+        .filter(|&&c| c == cell_class::SOLID)
+        .count();
+    assert!(solid >= 8, "{solid} cells made solid");
+    // the same verdict too old: ignored, alarm and all
+    let max = p.params().foliage_max_age_ns;
+    p.odom(&odom(t + max + 1)).expect("good odometry");
+    let old = p.on_map(&header(3), grass.clone(), t + max + 1);
+    assert!(straight(&old), "{old:?}");
+    assert_eq!(old.flags, 0);
+    // and ignored when the planner is told not to use the classifier
+    let mut p = driving(
+        PilotParams {
+            use_foliage: false,
+            ..PilotParams::default()
+        },
+        t,
+    );
+    p.foliage(&h, &r);
+    let off = p.on_map(&header(1), grass, t);
+    assert!(straight(&off) && off.flags == 0, "{off:?}");
+}
+
+#[test]
+fn a_command_expires_after_command_validity_and_never_carries_a_non_finite_number() {
+    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let validity = p.params().validity_ns;
+    assert_eq!(validity, 500 * MS, "robot.command_validity_s's default");
+    let d = Decision {
+        v: 0.3,
+        omega: -0.2,
+        status: command_status::DRIVING,
+        flags: command_flags::FOLIAGE_ALARM,
+        stale: None,
+        source_stamp_ns: 7,
+        source_seq: 8,
+    };
+    let c = p.command(&d, 5 * S);
+    assert_eq!(
+        (c.seq, c.stamp_mono_ns, c.valid_until_mono_ns),
+        (0, 5 * S, 5 * S + validity)
+    );
+    assert_eq!(
+        (c.v, c.omega, c.status, c.flags),
+        (0.3, -0.2, command_status::DRIVING, 1)
+    );
+    assert_eq!((c.source_stamp_ns, c.source_seq), (7, 8));
+    let bad = p.command(&Decision { v: f64::NAN, ..d }, 6 * S);
+    assert_eq!(
+        (bad.seq, bad.v, bad.omega, bad.status),
+        (1, 0.0, 0.0, command_status::BLOCKED)
+    );
+    // the end of time does not wrap into the past
+    assert_eq!(p.command(&d, u64::MAX).valid_until_mono_ns, u64::MAX);
+    assert_eq!(p.commands(), 3);
+}
+
+#[test]
+fn every_decision_describes_itself() {
+    let d = Decision::stop(command_status::STALE_INPUT, 1, Some(Stale::NoMap), None);
+    assert_eq!(
+        d.describe(),
+        "stale input (no map on map/plan for planner.map_max_age_s): zero velocity; foliage alarm"
+    );
+    assert_eq!(
+        Decision::stop(command_status::BLOCKED, 0, None, None).describe(),
+        "blocked (no feasible motion): zero velocity"
+    );
+}
