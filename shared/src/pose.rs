@@ -34,6 +34,19 @@ pub fn odom_pose(odom: &Odometry) -> Option<Pose2> {
         .then(|| pose2(odom.x, odom.y, odom.yaw))
 }
 
+/// Odometry with a number that is not finite: refused where it arrives, so it never steers and
+/// never moves a memory (the last good message ages into stale odometry instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("odometry with a non-finite pose or velocity (seq {0}): ignored")]
+pub struct NonFiniteOdometry(pub u64);
+
+/// The robot's pose an `odom` message gives, when its pose and velocity are all finite.
+pub fn check_odometry(odom: &Odometry) -> Result<Pose2, NonFiniteOdometry> {
+    odom_pose(odom)
+        .filter(|_| odom.v.is_finite() && odom.omega.is_finite())
+        .ok_or(NonFiniteOdometry(odom.seq))
+}
+
 /// What every code path asks of a pose.
 pub trait Pose2Ext {
     /// x, m.
@@ -130,5 +143,12 @@ mod tests {
         };
         assert!(odom_pose(&o).is_none());
         assert!(odom_pose(&Odometry::default()).is_some_and(|p| p.is_finite()));
+        let fast = Odometry {
+            seq: 4,
+            v: f32::INFINITY,
+            ..Odometry::default()
+        };
+        assert_eq!(check_odometry(&fast), Err(NonFiniteOdometry(4)));
+        assert!(check_odometry(&Odometry::default()).is_ok());
     }
 }

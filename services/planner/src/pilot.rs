@@ -21,7 +21,7 @@
 
 use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::pose::{Pose2Ext, odom_pose};
+use mimnav_shared::pose::{NonFiniteOdometry, Pose2Ext, check_odometry, odom_pose};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
     command_status, foliage_class,
@@ -155,8 +155,8 @@ impl Decision {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum Refused {
     /// Odometry with a non-finite pose or velocity.
-    #[error("odometry with a non-finite pose or velocity (seq {0}): ignored")]
-    Odometry(u64),
+    #[error(transparent)]
+    Odometry(#[from] NonFiniteOdometry),
     /// A goal with a non-finite position or a tolerance that is not finite and ≥ 0.
     #[error("a goal with a non-finite position or a bad tolerance (seq {0}): ignored")]
     Goal(u64),
@@ -234,9 +234,7 @@ impl Pilot {
     /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
     /// finite.
     pub fn odom(&mut self, o: &Odometry) -> Result<(), Refused> {
-        if odom_pose(o).is_none() || !o.v.is_finite() || !o.omega.is_finite() {
-            return Err(Refused::Odometry(o.seq));
-        }
+        check_odometry(o)?;
         self.odom = Some(*o);
         Ok(())
     }

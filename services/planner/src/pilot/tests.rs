@@ -153,7 +153,7 @@ fn non_finite_odometry_is_refused_and_ages_into_a_stop() {
             ..odom(t + S)
         },
     ] {
-        assert_eq!(p.odom(&bad), Err(Refused::Odometry(1)));
+        assert_eq!(p.odom(&bad), Err(Refused::Odometry(NonFiniteOdometry(1))));
     }
     // the good odometry of t is kept, and is now a second old
     let d = p.on_map(&header(1), free(), t + S);
