@@ -45,6 +45,7 @@ pub mod baseline;
 pub mod glass;
 pub mod render;
 pub mod score;
+pub mod step;
 
 use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
 use mimnav_shared::grid::GridSpec;
@@ -476,7 +477,6 @@ impl Mapper {
         stats
     }
 }
-
 
 impl Mapper {
     /// Forgets the last revolution's cells, rings and reach.

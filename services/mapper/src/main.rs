@@ -1,226 +1,138 @@
 //! `mimnav-mapper`: the map builder service.
 //!
-//! Wiring only: config → topics → a WaitSet loop that maps every revolution of `lidar/points`
-//! with the latest `odom` and publishes `map/layers` and `map/plan`. A revolution later than
-//! `mapper.points_deadline_s` is reported (rate-limited) as stale input; the loop goes on.
+//! Wiring only: every revolution of `lidar/points`, with the latest `odom`, goes through the
+//! library's [`MapStep`]; its map goes out on `map/plan` (first: the planner waits for it) and
+//! `map/layers`. The points topic has a deadline of `mapper.points_deadline_s`: a revolution
+//! later than that is reported (rate-limited) as stale input; the loop goes on.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use clap::Parser;
-use iceoryx2::prelude::*;
-use mimnav_mapper::glass::Pose2;
-use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
-use mimnav_shared::cli::ServiceArgs;
+use mimnav_mapper::step::MapStep;
 use mimnav_shared::config::Config;
-use mimnav_shared::faults::Faults;
-use mimnav_shared::ipc::{self, Listening, Svc};
-use mimnav_shared::systemd::Notifier;
-use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, map_status};
+use mimnav_shared::ipc::{self, Listening};
+use mimnav_shared::service::{self, Service, ServiceCli};
+use mimnav_shared::topics::{self, PlanCell, map_status};
 
 /// The map builder: lidar/points + odom → map/layers + map/plan.
-#[derive(Debug, Parser)]
+#[derive(Debug, clap::Parser)]
 #[command(name = "mimnav-mapper", version)]
 struct Args {
     #[command(flatten)]
-    service: ServiceArgs,
+    service: mimnav_shared::cli::ServiceArgs,
+}
+
+impl ServiceCli for Args {
+    fn service_args(&self) -> &mimnav_shared::cli::ServiceArgs {
+        &self.service
+    }
 }
 
 fn main() -> ExitCode {
-    let args = Args::parse();
-    let config = match args.service.load_or_exit("mimnav-mapper", &[]) {
-        Ok(c) => c,
-        Err(code) => return code,
-    };
-    mimnav_shared::logging::init(&config.log.level);
-    // held until the service ends
-    let _cpu_latency = mimnav_shared::realtime::apply(&config);
-    mimnav_shared::cli::finish("mimnav-mapper", run(&config).map(|()| ExitCode::SUCCESS))
+    service::main("mimnav-mapper", |_args: Args, config| {
+        run(&config).map(|()| ExitCode::SUCCESS)
+    })
 }
 
 fn run(config: &Config) -> Result<()> {
-    let node = ipc::node(config, "mapper")?;
-    let points = ipc::points_subscriber(&node)?;
-    let odom_sub = ipc::odom_subscriber(&node)?;
-    let params = MapperParams::from_config(config);
-    let grid = params.grid;
-    let n_layers = params.layers.len();
-    let layers_pub = ipc::layers_publisher(&node, n_layers * grid.len())?;
-    let plan_pub = ipc::plan_publisher(&node, grid.len())?;
-    let mut mapper = Mapper::new(params);
-    let mut sd = Notifier::from_env();
+    let svc = Service::open(config, "mapper")?;
+    let points = ipc::points_subscriber(svc.node())?;
+    let odom_sub = ipc::odom_subscriber(svc.node())?;
+    let mut step = MapStep::from_config(config);
+    let (grid, n_layers) = (
+        step.mapper().params().grid,
+        step.mapper().params().layers.len(),
+    );
+    let layers_pub = ipc::layers_publisher(svc.node(), n_layers * grid.len())?;
+    let plan_pub = ipc::plan_publisher(svc.node(), grid.len())?;
     tracing::info!(
         cells = grid.cells,
         cell_m = grid.cell_m,
         layers = n_layers,
         "topics open: {}, {}",
-        mimnav_shared::topics::MAP_LAYERS,
-        mimnav_shared::topics::MAP_PLAN
+        topics::MAP_LAYERS,
+        topics::MAP_PLAN
     );
-    let waitset = WaitSetBuilder::new()
-        .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
-        .create::<Svc>()
-        .map_err(|e| anyhow::anyhow!("cannot create the WaitSet: {e:?}"))?;
     let deadline = Duration::from_secs_f64(config.mapper.points_deadline_s);
-    let points_guard = waitset
-        .attach_deadline(points.listener(), deadline)
-        .map_err(|e| anyhow::anyhow!("cannot wait on lidar/points: {e:?}"))?;
-    let _odom_guard = waitset
-        .attach_notification(odom_sub.listener())
-        .map_err(|e| anyhow::anyhow!("cannot wait on odom: {e:?}"))?;
-    let _tick = waitset
-        .attach_interval(sd.tick())
-        .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
-    let mut faults = Faults::new(Duration::from_secs(10));
-    let mut latest_odom: Option<Odometry> = None;
-    let odom_max_age_ns = (config.mapper.odom_max_age_s * 1e9) as u64;
-    let mut seq = 0u64;
-    let mut spent_us = 0u64;
-    let mut since_report = 0u64;
-    let mut last_report = Instant::now();
-    sd.ready("waiting for lidar/points");
-    let result = ipc::run_waitset(&waitset, |id| {
-        sd.alive(Instant::now());
-        if id.has_missed_deadline(&points_guard) {
-            sd.status(&format!(
+    let points_guard = svc.on_deadline(&points, deadline)?;
+    let (_odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
+    let (mut spent_us, mut since_report, mut last_report) = (0u64, 0u64, Instant::now());
+    let mut health = svc.health();
+    svc.run(&mut health, "waiting for lidar/points", |turn, h| {
+        if turn.missed(&points_guard) {
+            let what = format!(
                 "stale input: no revolution on lidar/points for {:.1} s",
                 deadline.as_secs_f64()
-            ));
-            faults.record(
-                "stale_points",
-                Instant::now(),
-                format_args!(
-                    "no revolution on lidar/points for {:.1} s",
-                    deadline.as_secs_f64()
-                ),
             );
+            h.sd.status(&what);
+            h.faults.record("stale_points", turn.now, what);
         }
-        let _ = odom_sub.heard();
+        let _ = (odom_sub.heard(), points.heard());
         match odom_sub.latest() {
-            Ok(Some(o)) => latest_odom = Some(o),
-            Ok(None) => {}
-            Err(e) => {
-                faults.record("receive_failed", Instant::now(), e);
+            Ok(Some(o)) => {
+                _ = step
+                    .odom(&o)
+                    .map_err(|e| h.faults.record("bad_odom", turn.now, e))
             }
+            Ok(None) => {}
+            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
         }
-        let _ = points.heard();
         loop {
             let sample = match points.receive() {
                 Ok(Some(s)) => s,
                 Ok(None) => break,
                 Err(e) => {
-                    faults.record("receive_failed", Instant::now(), e);
+                    h.faults.record("receive_failed", turn.now, e);
                     break;
                 }
             };
-            let started = Instant::now();
-            let h = *sample.user_header();
-            let now_mono = ipc::monotonic_ns();
-            // from the revolution's last packet to here: the driver's publish and this wake-up
-            let waited_us = now_mono.saturating_sub(h.rx_mono_ns) / 1000;
-            let (odom, status) = match latest_odom {
-                None => (OdomInput::Missing, map_status::ODOM_MISSING),
-                Some(o) if now_mono.saturating_sub(o.rx_mono_ns) > odom_max_age_ns => {
-                    (OdomInput::Stale, map_status::ODOM_STALE)
-                }
-                Some(o) => (
-                    OdomInput::Fresh(Odom {
-                        pose: Pose2 {
-                            x: o.x,
-                            y: o.y,
-                            yaw: o.yaw,
-                        },
-                        v: f64::from(o.v),
-                        omega: f64::from(o.omega),
-                    }),
-                    0,
-                ),
-            };
-            if status == map_status::ODOM_STALE {
-                faults.record(
-                    "stale_odom",
-                    Instant::now(),
-                    "odometry is stale: the glass memory is not moved",
-                );
-            }
-            let stats = mapper.update(sample.payload(), odom, h.stamp_ns);
+            let (started, now) = (Instant::now(), ipc::monotonic_ns());
+            let rx = sample.user_header().rx_mono_ns;
+            let mut mapped = step.revolution(sample.user_header(), sample.payload(), now);
             drop(sample);
-            let o = latest_odom.unwrap_or_default();
-            let processing_us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
-            let header = MapHeader {
-                seq,
-                source_seq: h.seq,
-                stamp_ns: h.stamp_ns,
-                rx_mono_ns: h.rx_mono_ns,
-                odom_seq: o.seq,
-                odom_stamp_ns: o.stamp_ns,
-                x: o.x,
-                y: o.y,
-                yaw: o.yaw,
-                cells: grid.cells as u32,
-                cell_m: grid.cell_m,
-                layers: n_layers as u32,
-                processing_us,
-                status,
-                reserved: [0; 7],
-            };
-            // the plan first, written straight into shared memory: the planner waits for it;
-            // the layers (for pictures and diagnostics) after
-            let (classes, cost) = (mapper.classes(), mapper.cost());
-            let plan = classes
-                .iter()
-                .zip(cost)
-                .map(|(&class, &cost)| PlanCell { class, cost });
-            if let Err(e) = plan_pub.publish_from_iter(header, classes.len(), plan) {
-                faults.record("publish_failed", Instant::now(), e);
+            if mapped.header.status == map_status::ODOM_STALE {
+                h.faults.record("stale_odom", turn.now, mapped.describe());
             }
-            let plan_sent_us = ipc::monotonic_ns().saturating_sub(h.rx_mono_ns) / 1000;
+            let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
+            mapped.header.processing_us = us;
+            let (classes, cost) = (step.mapper().classes(), step.mapper().cost());
+            let plan = (classes.iter().zip(cost)).map(|(&class, &cost)| PlanCell { class, cost });
+            if let Err(e) = plan_pub.publish_from_iter(mapped.header, classes.len(), plan) {
+                h.faults.record("publish_failed", turn.now, e);
+            }
+            let plan_sent_us = ipc::monotonic_ns().saturating_sub(rx) / 1000;
             let len = n_layers * grid.len();
-            if let Err(e) = layers_pub.publish_from_iter(header, len, mapper.layers()) {
-                faults.record("publish_failed", Instant::now(), e);
+            let layers = step.mapper().layers();
+            if let Err(e) = layers_pub.publish_from_iter(mapped.header, len, layers) {
+                h.faults.record("publish_failed", turn.now, e);
             }
+            let (hd, s) = (&mapped.header, &mapped.stats);
             tracing::debug!(
-                seq,
-                source_seq = h.seq,
-                waited_us,
-                processing_us,
+                seq = hd.seq,
+                source_seq = hd.source_seq,
+                // from the revolution's last packet to here: the driver's publish and the wake-up
+                waited_us = now.saturating_sub(rx) / 1000,
+                processing_us = us,
                 plan_sent_us,
-                glass_detected = stats.glass_detected,
-                glass_memory = stats.glass_memory,
-                surface_found = stats.surface_found,
-                surface_memory = stats.surface_memory,
-                tall_memory = stats.tall_memory,
-                status,
+                glass_detected = s.glass_detected,
+                glass_memory = s.glass_memory,
+                surface_found = s.surface_found,
+                surface_memory = s.surface_memory,
+                tall_memory = s.tall_memory,
+                status = hd.status,
                 "map"
             );
-            seq += 1;
-            spent_us += u64::from(processing_us);
-            since_report += 1;
-            // sent only when it changes (after a stale-input line, too)
-            sd.status(match status {
-                map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
-                map_status::ODOM_STALE => "mapping; stale odometry (the glass memory stays put)",
-                _ => "mapping",
-            });
+            (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
+            h.sd.status(mapped.describe()); // sent only when it changes
         }
         if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
-            tracing::info!(
-                maps = seq,
-                mean_processing_us = spent_us / since_report,
-                "mapping; faults: {}",
-                faults.summary()
-            );
-            spent_us = 0;
-            since_report = 0;
-            last_report = Instant::now();
+            let mean_processing_us = spent_us / since_report;
+            let (maps, faults) = (step.maps(), h.faults.summary());
+            tracing::info!(maps, mean_processing_us, "mapping; faults: {faults}");
+            (spent_us, since_report, last_report) = (0, 0, Instant::now());
         }
-        CallbackProgression::Continue
-    });
-    sd.stopping("stopping");
-    match result {
-        Ok(r) => tracing::info!(maps = seq, "stopping ({r:?}); faults: {}", faults.summary()),
-        Err(e) => anyhow::bail!("WaitSet failed: {e:?}"),
-    }
+    })?;
+    tracing::info!(maps = step.maps(), "mapper stopped");
     Ok(())
 }

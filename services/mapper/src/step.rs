@@ -1,0 +1,235 @@
+//! The mapper service's step: everything between receiving a revolution (and the odometry) and
+//! publishing the map, without IPC and without reading a clock (every call is given `now`,
+//! monotonic ns). The service, `mimnav eval`, `mimnav score-map` and the lock-step runner drive
+//! this type alike.
+//!
+//! Odometry decides how a revolution is mapped:
+//! - none received yet: mapped without de-skew, the memories stay put, the header's status says
+//!   [`map_status::ODOM_MISSING`];
+//! - older than `mapper.odom_max_age_s` when the revolution arrives: the same, with
+//!   [`map_status::ODOM_STALE`];
+//! - a message with a non-finite number is refused where it arrives ([`MapStep::odom`]) and never
+//!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
+
+use mimnav_shared::config::Config;
+use mimnav_shared::pose::{NonFiniteOdometry, check_odometry};
+use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
+
+use crate::glass::Pose2;
+use crate::{Mapper, MapperParams, Odom, OdomInput, UpdateStats};
+
+/// One revolution mapped: the header to publish (its `processing_us` is the caller's to fill)
+/// and what the mapper found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mapped {
+    /// The header of `map/layers` and `map/plan`.
+    pub header: MapHeader,
+    /// What the update found.
+    pub stats: UpdateStats,
+}
+
+impl Mapped {
+    /// One line for a person (and systemd's `STATUS=`).
+    pub fn describe(&self) -> &'static str {
+        match self.header.status {
+            map_status::ODOM_MISSING => "mapping; no odometry (the glass memory stays put)",
+            map_status::ODOM_STALE => "mapping; stale odometry (the glass memory stays put)",
+            _ => "mapping",
+        }
+    }
+}
+
+/// The mapper service's state between messages: the latest odometry, the map sequence and the
+/// mapper.
+#[derive(Debug)]
+pub struct MapStep {
+    mapper: Mapper,
+    odom_max_age_ns: u64,
+    odom: Option<Odometry>,
+    seq: u64,
+}
+
+impl MapStep {
+    /// A step mapping with `params`; odometry older than `odom_max_age_ns` is stale.
+    pub fn new(params: MapperParams, odom_max_age_ns: u64) -> Self {
+        MapStep {
+            mapper: Mapper::new(params),
+            odom_max_age_ns,
+            odom: None,
+            seq: 0,
+        }
+    }
+
+    /// The step of the config's `[mapper]`, `[map]` and `[robot]`.
+    pub fn from_config(config: &Config) -> Self {
+        MapStep::new(
+            MapperParams::from_config(config),
+            (config.mapper.odom_max_age_s * 1e9) as u64,
+        )
+    }
+
+    /// The mapper: the last map's classes, cost and layers.
+    pub fn mapper(&self) -> &Mapper {
+        &self.mapper
+    }
+
+    /// Maps published so far.
+    pub fn maps(&self) -> u64 {
+        self.seq
+    }
+
+    /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
+    /// finite.
+    pub fn odom(&mut self, o: &Odometry) -> Result<(), NonFiniteOdometry> {
+        check_odometry(o)?;
+        self.odom = Some(*o);
+        Ok(())
+    }
+
+    /// Maps the revolution `points` (with its header) that arrived at `now`.
+    pub fn revolution(&mut self, h: &PointsHeader, points: &[Point], now: u64) -> Mapped {
+        let (input, status) = match self.odom {
+            None => (OdomInput::Missing, map_status::ODOM_MISSING),
+            Some(o) if now.saturating_sub(o.rx_mono_ns) > self.odom_max_age_ns => {
+                (OdomInput::Stale, map_status::ODOM_STALE)
+            }
+            Some(o) => (
+                OdomInput::Fresh(Odom {
+                    pose: Pose2 {
+                        x: o.x,
+                        y: o.y,
+                        yaw: o.yaw,
+                    },
+                    v: f64::from(o.v),
+                    omega: f64::from(o.omega),
+                }),
+                0,
+            ),
+        };
+        let stats = self.mapper.update(points, input, h.stamp_ns);
+        let o = self.odom.unwrap_or_default();
+        let grid = self.mapper.params().grid;
+        let header = MapHeader {
+            seq: self.seq,
+            source_seq: h.seq,
+            stamp_ns: h.stamp_ns,
+            rx_mono_ns: h.rx_mono_ns,
+            odom_seq: o.seq,
+            odom_stamp_ns: o.stamp_ns,
+            x: o.x,
+            y: o.y,
+            yaw: o.yaw,
+            cells: grid.cells as u32,
+            cell_m: grid.cell_m,
+            layers: self.mapper.params().layers.len() as u32,
+            processing_us: 0,
+            status,
+            reserved: [0; 7],
+        };
+        self.seq += 1;
+        Mapped { header, stats }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const S: u64 = 1_000_000_000;
+
+    fn odom(at: u64) -> Odometry {
+        Odometry {
+            seq: 7,
+            stamp_ns: 11,
+            rx_mono_ns: at,
+            x: 1.0,
+            y: 2.0,
+            yaw: 0.5,
+            v: 0.2,
+            omega: 0.1,
+        }
+    }
+
+    fn points_header(seq: u64) -> PointsHeader {
+        PointsHeader {
+            seq,
+            stamp_ns: 5 * S + seq,
+            rx_mono_ns: 9 * S,
+            ..PointsHeader::default()
+        }
+    }
+
+    #[test]
+    fn the_header_names_the_revolution_and_the_odometry_and_counts_maps() {
+        let mut step = MapStep::new(MapperParams::default(), S / 2);
+        step.odom(&odom(10 * S)).expect("good odometry");
+        let m = step.revolution(&points_header(3), &[], 10 * S);
+        let h = m.header;
+        assert_eq!(
+            (h.seq, h.source_seq, h.stamp_ns, h.rx_mono_ns),
+            (0, 3, 5 * S + 3, 9 * S)
+        );
+        assert_eq!(
+            (h.odom_seq, h.odom_stamp_ns, h.x, h.y, h.yaw),
+            (7, 11, 1.0, 2.0, 0.5)
+        );
+        let grid = MapperParams::default().grid;
+        assert_eq!(
+            (h.cells as usize, h.cell_m, h.layers),
+            (grid.cells, grid.cell_m, 4)
+        );
+        assert_eq!((h.status, m.describe()), (0, "mapping"));
+        assert_eq!(
+            step.revolution(&points_header(4), &[], 10 * S).header.seq,
+            1
+        );
+        assert_eq!(step.maps(), 2);
+    }
+
+    #[test]
+    fn missing_and_stale_odometry_are_named_in_the_header() {
+        let mut step = MapStep::new(MapperParams::default(), S / 2);
+        let m = step.revolution(&points_header(0), &[], 10 * S);
+        assert_eq!(m.header.status, map_status::ODOM_MISSING);
+        assert!(m.describe().contains("no odometry"));
+        step.odom(&odom(10 * S)).expect("good odometry");
+        assert_eq!(
+            step.revolution(&points_header(1), &[], 10 * S + S / 2)
+                .header
+                .status,
+            0
+        );
+        let m = step.revolution(&points_header(2), &[], 10 * S + S / 2 + 1);
+        assert_eq!(m.header.status, map_status::ODOM_STALE);
+        assert!(m.describe().contains("stale odometry"));
+    }
+
+    #[test]
+    fn non_finite_odometry_is_refused_and_the_last_good_one_ages() {
+        let mut step = MapStep::new(MapperParams::default(), S / 2);
+        step.odom(&odom(10 * S)).expect("good odometry");
+        for bad in [
+            Odometry {
+                x: f64::NAN,
+                ..odom(11 * S)
+            },
+            Odometry {
+                yaw: f64::INFINITY,
+                ..odom(11 * S)
+            },
+            Odometry {
+                v: f32::NAN,
+                ..odom(11 * S)
+            },
+            Odometry {
+                omega: f32::INFINITY,
+                ..odom(11 * S)
+            },
+        ] {
+            assert_eq!(step.odom(&bad), Err(NonFiniteOdometry(7)));
+        }
+        let m = step.revolution(&points_header(0), &[], 11 * S);
+        assert_eq!(m.header.status, map_status::ODOM_STALE);
+        assert_eq!((m.header.x, m.header.y), (1.0, 2.0), "the last good pose");
+    }
+}
