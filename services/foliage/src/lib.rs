@@ -149,6 +149,8 @@
 
 use std::f32::consts::{PI, TAU};
 
+pub mod step;
+
 /// Per-return classes reported in [`Verdict::classes`].
 pub mod class {
     /// No usable return (range 0, negative, NaN or infinite, or a non-finite angle).
