@@ -101,6 +101,11 @@ impl ScanStep {
         self.classifier.params()
     }
 
+    /// The last scan's returns with their classes.
+    pub fn returns(&self) -> &[FoliageReturn] {
+        &self.out
+    }
+
     /// Verdicts published so far.
     pub fn scans(&self) -> u64 {
         self.seq
