@@ -15,21 +15,16 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::{Classifier, FoliageParams, Motion};
-use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
-use mimnav_mapper::glass::Pose2;
 use mimnav_mapper::render::{self, Image};
 use mimnav_mapper::score::{MapScore, score};
-use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
-use mimnav_planner::dwa::DwaOutcome;
+use mimnav_planner::PlannerParams;
 use mimnav_planner::inflate::Inflation;
-use mimnav_planner::{Planner, PlannerParams, confirm_obstacles};
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::topics::cell_class;
+use mimnav_shared::topics::{cell_class, command_status};
 use mimnav_sim::world::{Scene, WorldFile};
-use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Pose, Sim, SimSettings};
-use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
+use mimnav_sim::{Outcome, Pose};
 
 /// A way of making the map the planner drives on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -181,7 +176,31 @@ pub struct Episode {
     pub touched: Option<[f64; 2]>,
 }
 
-/// Runs one episode of `scene` with `method` and `seed`.
+impl Method {
+    /// The stack this method runs: the deployed step types, put together by the runner.
+    pub fn options(self) -> Options {
+        let (map, foliage, inflation) = match self {
+            Method::Adaptive => (MapSource::Intensity, FoliageUse::Off, Inflation::Adaptive),
+            Method::Foliage => (
+                MapSource::Intensity,
+                FoliageUse::InLoop,
+                Inflation::Adaptive,
+            ),
+            Method::Uniform => (MapSource::Intensity, FoliageUse::Off, Inflation::Uniform),
+            // the baselines use the usual costmap: uniform inflation
+            Method::LaserScan => (MapSource::LaserScan, FoliageUse::Off, Inflation::Uniform),
+            Method::Occupancy => (MapSource::Occupancy, FoliageUse::Off, Inflation::Uniform),
+        };
+        Options {
+            map,
+            foliage,
+            inflation: Some(inflation),
+            drive: Drive::Planner,
+        }
+    }
+}
+
+/// Runs one episode of `scene` with `method` and `seed`, through the lock-step runner.
 pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) -> Result<Episode> {
     let grid = config.map.grid();
     let goal = scene.goal;
@@ -189,33 +208,11 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     let straight_m = ((goal[0] - scene.start[0]).hypot(goal[1] - scene.start[1])
         - config.sim.goal_tolerance_m)
         .max(0.01);
-    let mut sim = Sim::new(
-        scene.clone(),
-        SimSettings::from_config(config),
-        seed,
-        DEFAULT_EPOCH_NS,
-    );
-    let mut asm_config = AssemblerConfig::from_config(config);
-    if method == Method::LaserScan {
-        // the paper's baseline is a single-return planar scanner: the strongest echo, which in
-        // grass is a blade (the last return would see through the grass)
-        asm_config.decoder.scan_return = mimnav_velodyne::decode::ScanReturnSelect::Strongest;
-    }
-    let mut asm = Assembler::new(asm_config);
-    let mut mapper = Mapper::new(MapperParams::from_config(config));
-    let mut params = PlannerParams::from_config(config);
-    params.inflation = match method {
-        Method::Adaptive | Method::Foliage => Inflation::Adaptive,
-        // the baselines use the usual costmap: uniform inflation
-        Method::Uniform | Method::LaserScan | Method::Occupancy => Inflation::Uniform,
-    };
-    let mut planner = Planner::new(params);
-    let (mut baseline, mut truth) = (Vec::new(), Vec::new());
-    let mut classifier = Classifier::new(FoliageParams::from_config(&config.foliage))
-        .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
-    let (mut angles, mut ranges, mut obstacles) = (Vec::new(), Vec::new(), Vec::new());
-    // the sensor's pose at the previous scan, for the classifier's carried scans
-    let mut last_pose: Option<[f64; 3]> = None;
+    let mut run = Lockstep::new(config, scene.clone(), seed, method.options())?;
+    // the simulator ends the episode on the goal circle; the planner's own goal check is the
+    // same circle
+    run.set_goal(goal[0], goal[1], config.sim.goal_tolerance_m)?;
+    let mut truth = Vec::new();
     let mut episode = Episode {
         world: scene.name.clone(),
         method,
@@ -233,102 +230,24 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         trajectory: vec![(scene.start[0], scene.start[1])],
         touched: None,
     };
-    let r = &config.robot;
-    let (low, high) = (
-        config.mapper.ground_clearance_m as f32,
-        r.height_m.max(r.sensor_height_m) as f32 + 0.1,
-    );
-    while sim.outcome() == Outcome::Running {
-        let step = sim.step();
-        let Some(rev) = asm
-            .push(&step.data, step.first_firing_ns, 0)
-            .context("the driver refused a simulated packet")?
-        else {
-            continue;
-        };
+    while let Some(turn) = run.next_revolution()? {
         episode.revolutions += 1;
-        let b = *sim.base();
-        let t = std::time::Instant::now();
-        let classes: &[u8] = match method {
-            Method::Adaptive | Method::Uniform | Method::Foliage => {
-                mapper.update(
-                    &rev.points,
-                    OdomInput::Fresh(Odom {
-                        pose: Pose2 {
-                            x: b.pose.x,
-                            y: b.pose.y,
-                            yaw: b.pose.yaw,
-                        },
-                        v: b.v,
-                        omega: b.omega,
-                    }),
-                    rev.header.stamp_ns,
-                );
-                if method == Method::Foliage {
-                    angles.clear();
-                    ranges.clear();
-                    for r in &rev.scan {
-                        angles.push(r.angle_rad);
-                        ranges.push(r.range_m);
-                    }
-                    let pose = [b.pose.x, b.pose.y, b.pose.yaw];
-                    let motion = last_pose.map(|from| Motion::between(from, pose));
-                    last_pose = Some(pose);
-                    let verdict = classifier.classify_moved(&angles, &ranges, motion);
-                    episode.alarms += u64::from(verdict.alarm);
-                    obstacles.clear();
-                    obstacles.extend(
-                        verdict
-                            .classes
-                            .iter()
-                            .zip(angles.iter().zip(&ranges))
-                            .filter(|(c, _)| **c == mimnav_foliage::class::OBSTACLE)
-                            .map(|(_, (&a, &r))| (a, r)),
-                    );
-                    baseline.clear();
-                    baseline.extend_from_slice(mapper.classes());
-                    confirm_obstacles(&mut baseline, grid, obstacles.iter().copied());
-                    &baseline
-                } else {
-                    mapper.classes()
-                }
-            }
-            Method::LaserScan => {
-                scan_occupancy(&rev.scan, grid, &mut baseline);
-                &baseline
-            }
-            Method::Occupancy => {
-                cloud_occupancy(
-                    &rev.points,
-                    grid,
-                    r.sensor_height_m as f32,
-                    low,
-                    high,
-                    &mut baseline,
-                );
-                &baseline
-            }
-        };
-        episode.map_ns += t.elapsed().as_nanos();
+        episode.map_ns += u128::from(turn.map_ns + turn.classify_ns);
+        episode.plan_ns += u128::from(turn.plan_ns);
+        episode.alarms += u64::from(turn.foliage.is_some_and(|f| f.alarm != 0));
+        if let Some((_, c)) = turn.command
+            && c.status == command_status::BLOCKED
+        {
+            episode.blocked += 1;
+        }
         if episode.revolutions.is_multiple_of(5) {
-            sim.truth(grid, &mut truth);
-            episode.score.add(&score(classes, &truth, grid, 4.5));
+            run.sim().truth(grid, &mut truth);
+            episode.score.add(&score(run.classes(), &truth, grid, 4.5));
         }
-        let (s, c) = b.pose.yaw.sin_cos();
-        let (dx, dy) = (goal[0] - b.pose.x, goal[1] - b.pose.y);
-        let goal_robot = (c * dx + s * dy, -s * dx + c * dy);
-        let t = std::time::Instant::now();
-        let outcome = planner.plan(classes, grid, b.v, b.omega, goal_robot);
-        episode.plan_ns += t.elapsed().as_nanos();
-        match outcome {
-            DwaOutcome::Drive { v, omega, .. } => sim.set_command(v, omega),
-            DwaOutcome::Blocked => {
-                episode.blocked += 1;
-                sim.set_command(0.0, 0.0)
-            }
-        }
-        episode.trajectory.push((b.pose.x, b.pose.y));
+        let p = run.sim().base().pose;
+        episode.trajectory.push((p.x, p.y));
     }
+    let sim = run.sim();
     episode.path_m = sim.path_length_m();
     episode.elapsed_s = sim.elapsed_s();
     episode.ending = match sim.outcome() {
@@ -555,25 +474,24 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
     }
     if args.json {
         for e in &episodes {
-            println!(
-                "{{\"world\":{:?},\"method\":{:?},\"seed\":{},\"ending\":\"{}\",\"path_m\":{:.3},\"straight_m\":{:.3},\"elapsed_s\":{:.2},\"revolutions\":{},\"blocked\":{},\"alarms\":{},\"f_solid\":{:.3},\"f_passable\":{:.3},\"f_glass\":{:.3},\"planner_us_per_rev\":{:.1},\"touched\":{}}}",
-                e.world,
-                e.method.key(),
-                e.seed,
-                e.ending.name(),
-                e.path_m,
-                e.straight_m,
-                e.elapsed_s,
-                e.revolutions,
-                e.blocked,
-                e.alarms,
-                e.score.solid.f_score(),
-                e.score.passable.f_score(),
-                e.score.glass.f_score(),
-                e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64,
-                e.touched
-                    .map_or("null".to_string(), |[x, y]| format!("[{x:.2},{y:.2}]"))
-            );
+            let line = serde_json::json!({
+                "world": e.world,
+                "method": e.method.key(),
+                "seed": e.seed,
+                "ending": e.ending.name(),
+                "path_m": e.path_m,
+                "straight_m": e.straight_m,
+                "elapsed_s": e.elapsed_s,
+                "revolutions": e.revolutions,
+                "blocked": e.blocked,
+                "alarms": e.alarms,
+                "f_solid": e.score.solid.f_score(),
+                "f_passable": e.score.passable.f_score(),
+                "f_glass": e.score.glass.f_score(),
+                "planner_us_per_rev": e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64,
+                "touched": e.touched,
+            });
+            println!("{line}");
         }
     }
     println!(

@@ -35,14 +35,14 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::{Classifier, FoliageParams, class};
+use mimnav_foliage::FoliageParams;
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
-use mimnav_shared::topics::cell_class;
+use mimnav_shared::topics::{cell_class, foliage_class};
+use mimnav_sim::Outcome;
 use mimnav_sim::geometry::{footprint_distance, intersect};
 use mimnav_sim::lidar::Beam;
 use mimnav_sim::world::{Material, Scene, Shape, WorldFile};
-use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
-use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 /// A return is on an obstacle when its range is within this of the beam's true distance to the
 /// obstacle's surface, m: 6 standard deviations of the simulator's range noise (1.5 cm) plus the
@@ -117,7 +117,7 @@ pub struct FoliageEvalArgs {
 }
 
 /// What one obstacle did in one episode.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct ObstacleRecord {
     /// Index into the scene's objects.
     pub object: usize,
@@ -254,7 +254,6 @@ pub fn run_episode(
     min_run: usize,
 ) -> Result<Episode> {
     let params = FoliageParams::from_config(&config.foliage);
-    let mut classifier = Classifier::new(params).map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     let (d_min, d_max) = (params.d_min_m, params.d_max_m);
     let mut scene = scene.clone();
     // the episode ends after `scans` revolutions, not at the world's time limit
@@ -271,16 +270,17 @@ pub fn run_episode(
     for (k, &i) in obstacles.iter().enumerate() {
         slot[i] = k;
     }
-    let mut sim = Sim::new(
-        scene.clone(),
-        SimSettings::from_config(config),
-        seed,
-        DEFAULT_EPOCH_NS,
-    );
+    // the deployed classifier's step, on the driver's scans, with the simulator's odometry
+    let options = Options {
+        map: MapSource::None,
+        foliage: FoliageUse::Classify,
+        inflation: None,
+        drive: Drive::External,
+    };
+    let mut stack = Lockstep::new(config, scene.clone(), seed, options)?;
     if motion == Motion::Moving {
-        sim.set_command(speed, 0.0);
+        stack.sim_mut().set_command(speed, 0.0);
     }
-    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
     let laser = usize::from(config.velodyne.scan_laser);
     let mut episode = Episode {
         world,
@@ -304,29 +304,23 @@ pub fn run_episode(
             .collect(),
     };
     let (mut beams, mut truth) = (Vec::new(), Vec::<BeamTruth>::new());
-    let (mut angles, mut ranges) = (Vec::new(), Vec::new());
     let n = obstacles.len();
     let (mut los, mut on, mut hits) = (vec![0usize; n], vec![0usize; n], vec![0usize; n]);
     // per obstacle: the longest run of consecutive returns on it
     let mut longest = vec![0usize; n];
     let mut on_return: Vec<Option<usize>> = Vec::new();
-    // the sensor's pose at the previous scan (the sensor sits on the base's vertical axis)
-    let mut last_pose: Option<[f64; 3]> = None;
     while episode.scans < scans {
-        if sim.outcome() != Outcome::Running {
-            episode.contact = matches!(sim.outcome(), Outcome::Contact(_));
+        if stack.sim().outcome() != Outcome::Running {
+            episode.contact = matches!(stack.sim().outcome(), Outcome::Contact(_));
             break;
         }
-        sim.next_beams(laser, &mut beams);
+        stack.sim().next_beams(laser, &mut beams);
         truth.extend(beams.iter().map(|b| beam_truth(&scene, &opaque, b)));
-        let step = sim.step();
-        let Some(rev) = asm
-            .push(&step.data, step.first_firing_ns, 0)
-            .context("the driver refused a simulated packet")?
-        else {
+        let Some(turn) = stack.step()? else {
             continue;
         };
-        let scan = &rev.scan;
+        episode.classify_ns += u128::from(turn.classify_ns);
+        let (scan, verdict) = (stack.scan(), stack.verdict());
         anyhow::ensure!(
             truth.len() >= scan.len(),
             "internal: the scan has {} returns but the laser fired {} beams",
@@ -341,8 +335,6 @@ pub fn run_episode(
         longest.fill(0);
         // the run going on: (obstacle, returns so far); a return is on one obstacle at most
         let mut run: Option<(usize, usize)> = None;
-        angles.clear();
-        ranges.clear();
         for (r, t) in scan.iter().zip(&truth) {
             let az = -f64::from(r.angle_rad).to_degrees();
             let off = (az - t.azimuth_deg).rem_euclid(360.0);
@@ -372,29 +364,21 @@ pub fn run_episode(
                 longest[k] = longest[k].max(len);
             }
             on_return.push(is_on);
-            angles.push(r.angle_rad);
-            ranges.push(r.range_m);
         }
         truth.drain(..scan.len());
-        let pose = sim.base().pose;
-        let pose = [pose.x, pose.y, pose.yaw];
-        let motion = last_pose.map(|from| mimnav_foliage::Motion::between(from, pose));
-        last_pose = Some(pose);
-        let started = std::time::Instant::now();
-        let verdict = classifier.classify_moved(&angles, &ranges, motion);
-        episode.classify_ns += started.elapsed().as_nanos();
         let mut on_any = false;
-        for (c, o) in verdict.classes.iter().zip(&on_return) {
-            if *c == class::OBSTACLE
+        for (c, o) in verdict.iter().zip(&on_return) {
+            if c.class == foliage_class::OBSTACLE
                 && let Some(k) = *o
             {
                 hits[k] += 1;
                 on_any = true;
             }
         }
-        episode.alarms += u64::from(verdict.alarm);
-        episode.false_alarms += u64::from(verdict.alarm && !on_any);
-        let p = sim.base().pose;
+        let alarm = turn.foliage.is_some_and(|h| h.alarm != 0);
+        episode.alarms += u64::from(alarm);
+        episode.false_alarms += u64::from(alarm && !on_any);
+        let p = stack.sim().base().pose;
         for (k, rec) in episode.obstacles.iter_mut().enumerate() {
             let dist = footprint_distance(&scene.objects[rec.object].shape, [p.x, p.y]) as f32;
             let in_range = dist >= d_min && dist <= d_max;
@@ -431,7 +415,7 @@ pub fn run_episode(
         }
         episode.scans += 1;
     }
-    episode.driven_m = sim.path_length_m();
+    episode.driven_m = stack.sim().path_length_m();
     Ok(episode)
 }
 
@@ -775,41 +759,19 @@ pub fn run(
     if args.json {
         println!();
         for e in &episodes {
-            let obstacles: Vec<String> = e
-                .obstacles
-                .iter()
-                .map(|o| {
-                    format!(
-                        "{{\"object\":{},\"label\":{:?},\"in_range\":{},\"out_of_beam\":{},\"hidden\":{},\"glimpsed\":{},\"visible\":{},\"alarmed\":{},\"visible_run\":{},\"alarmed_run\":{},\"alarmed_not_visible\":{},\"first_visible\":{},\"delay_scans\":{}}}",
-                        o.object,
-                        o.label,
-                        o.in_range,
-                        o.out_of_beam,
-                        o.hidden,
-                        o.glimpsed,
-                        o.visible,
-                        o.alarmed,
-                        o.visible_run,
-                        o.alarmed_run,
-                        o.alarmed_not_visible,
-                        o.first_visible.map_or_else(|| "null".into(), |v| v.to_string()),
-                        o.delay_scans.map_or_else(|| "null".into(), |v| v.to_string()),
-                    )
-                })
-                .collect();
-            println!(
-                "{{\"world\":{:?},\"robot\":{:?},\"motion\":\"{}\",\"seed\":{},\"scans\":{},\"alarms\":{},\"false_alarms\":{},\"contact\":{},\"driven_m\":{:.2},\"obstacles\":[{}]}}",
-                scenes[e.world].name,
-                e.robot,
-                e.motion.name(),
-                e.seed,
-                e.scans,
-                e.alarms,
-                e.false_alarms,
-                e.contact,
-                e.driven_m,
-                obstacles.join(",")
-            );
+            let line = serde_json::json!({
+                "world": scenes[e.world].name,
+                "robot": e.robot,
+                "motion": e.motion.name(),
+                "seed": e.seed,
+                "scans": e.scans,
+                "alarms": e.alarms,
+                "false_alarms": e.false_alarms,
+                "contact": e.contact,
+                "driven_m": e.driven_m,
+                "obstacles": e.obstacles,
+            });
+            println!("{line}");
         }
     }
     all.scans += grass.scans;

@@ -10,14 +10,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_mapper::glass::Pose2;
 use mimnav_mapper::score::{ClassScore, MapScore, score, score_excluding};
-use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
+use mimnav_sim::Outcome;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;
-use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
-use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 /// Arguments of `mimnav score-map`.
 #[derive(Debug, clap::Args)]
@@ -71,56 +69,38 @@ pub fn score_world(
     let mut hidden_cells = Vec::new();
     let mut exclude = Vec::new();
     let survey = scene.survey.clone();
-    let mut sim = Sim::new(
-        scene,
-        SimSettings::from_config(config),
-        seed,
-        DEFAULT_EPOCH_NS,
-    );
+    // the deployed mapper's step on the driver's revolutions, the simulator's odometry
+    let options = Options {
+        map: MapSource::Intensity,
+        foliage: FoliageUse::Off,
+        inflation: None,
+        drive: Drive::External,
+    };
+    let mut stack = Lockstep::new(config, scene, seed, options)?;
     let mut driver = WaypointDriver::new(survey, 0.25);
-    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
-    let mut mapper = Mapper::new(MapperParams::from_config(config));
     let grid = config.map.grid();
     let mut truth = Vec::new();
     let (mut total, mut last) = (MapScore::default(), MapScore::default());
     let mut visible = MapScore::default();
     let (mut revolutions, mut seen) = (0u64, 0u64);
     let mut mapper_ns = 0u128;
-    let limits = sim.settings().limits;
-    while sim.outcome() == Outcome::Running && !driver.done() {
-        let step = sim.step();
-        let Some(rev) = asm
-            .push(&step.data, step.first_firing_ns, 0)
-            .context("the driver refused a simulated packet")?
-        else {
-            continue;
+    let limits = stack.sim().settings().limits;
+    while !driver.done() {
+        let Some(turn) = stack.next_revolution()? else {
+            break;
         };
         seen += 1;
-        let b = *sim.base();
-        let pose = Pose2 {
-            x: b.pose.x,
-            y: b.pose.y,
-            yaw: b.pose.yaw,
-        };
-        let t = std::time::Instant::now();
-        mapper.update(
-            &rev.points,
-            OdomInput::Fresh(Odom {
-                pose,
-                v: b.v,
-                omega: b.omega,
-            }),
-            rev.header.stamp_ns,
-        );
-        mapper_ns += t.elapsed().as_nanos();
+        mapper_ns += u128::from(turn.map_ns);
+        let (sim, classes) = (stack.sim(), stack.classes());
+        let pose = sim.base().pose;
         sim.truth(grid, &mut truth);
         if seen > warmup {
-            last = score(mapper.classes(), &truth, grid, range);
+            last = score(classes, &truth, grid, range);
             total.add(&last);
             if hidden.objects.is_empty() {
                 visible.add(&last);
             } else {
-                mimnav_sim::truth::truth_grid(&hidden, b.pose, grid, &mut hidden_cells);
+                mimnav_sim::truth::truth_grid(&hidden, pose, grid, &mut hidden_cells);
                 exclude.clear();
                 exclude.extend(
                     hidden_cells
@@ -128,7 +108,7 @@ pub fn score_world(
                         .map(|&c| c != mimnav_shared::topics::cell_class::FREE),
                 );
                 visible.add(&score_excluding(
-                    mapper.classes(),
+                    classes,
                     &truth,
                     grid,
                     range,
@@ -137,9 +117,10 @@ pub fn score_world(
             }
             revolutions += 1;
         }
-        let (v, w) = driver.command(b.pose, &limits);
-        sim.set_command(v, w);
+        let (v, w) = driver.command(pose, &limits);
+        stack.sim_mut().set_command(v, w);
     }
+    let sim = stack.sim();
     Ok(WorldScore {
         name: world.name,
         total,

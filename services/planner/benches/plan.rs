@@ -7,15 +7,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use mimnav_mapper::glass::Pose2;
-use mimnav_mapper::{Mapper, MapperParams, Odom, OdomInput};
 use mimnav_planner::inflate::Inflation;
 use mimnav_planner::{Planner, PlannerParams};
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
+use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;
-use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
-use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 /// A map with the robot's speed, turn rate and goal (robot frame).
 type Case = (Vec<u8>, f64, f64, (f64, f64));
@@ -34,44 +32,36 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
     };
     let goal = scene.goal;
     let mut driver = WaypointDriver::new(scene.survey.clone(), 0.25);
-    let mut sim = Sim::new(scene, SimSettings::from_config(config), 1, DEFAULT_EPOCH_NS);
-    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
-    let mut mapper = Mapper::new(MapperParams::from_config(config));
-    let limits = sim.settings().limits;
+    // the deployed driver's and mapper's steps, through the lock-step runner
+    let options = Options {
+        map: MapSource::Intensity,
+        foliage: FoliageUse::Off,
+        inflation: None,
+        drive: Drive::External,
+    };
+    let mut stack = match Lockstep::new(config, scene, 1, options) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("cannot run {}: {e}", path.display());
+            std::process::exit(1);
+        }
+    };
+    let limits = stack.sim().settings().limits;
     let mut out = Vec::new();
     let mut k = 0;
-    while sim.outcome() == Outcome::Running && !driver.done() {
-        let step = sim.step();
-        let Ok(Some(rev)) = asm.push(&step.data, step.first_firing_ns, 0) else {
-            continue;
+    while !driver.done() {
+        let Ok(Some(_)) = stack.next_revolution() else {
+            break;
         };
-        let b = *sim.base();
-        mapper.update(
-            &rev.points,
-            OdomInput::Fresh(Odom {
-                pose: Pose2 {
-                    x: b.pose.x,
-                    y: b.pose.y,
-                    yaw: b.pose.yaw,
-                },
-                v: b.v,
-                omega: b.omega,
-            }),
-            rev.header.stamp_ns,
-        );
+        let b = *stack.sim().base();
         k += 1;
         if k % 5 == 0 {
-            let (s, c) = b.pose.yaw.sin_cos();
-            let (dx, dy) = (goal[0] - b.pose.x, goal[1] - b.pose.y);
-            out.push((
-                mapper.classes().to_vec(),
-                b.v,
-                b.omega,
-                (c * dx + s * dy, -s * dx + c * dy),
-            ));
+            let robot = pose2(b.pose.x, b.pose.y, b.pose.yaw);
+            let goal_robot = robot.to_local(goal[0], goal[1]);
+            out.push((stack.classes().to_vec(), b.v, b.omega, goal_robot));
         }
         let (v, w) = driver.command(b.pose, &limits);
-        sim.set_command(v, w);
+        stack.sim_mut().set_command(v, w);
     }
     out
 }
