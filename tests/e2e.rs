@@ -8,6 +8,8 @@
 mod cli;
 /// The foliage classifier behind the driver replaying a capture.
 mod foliage;
+/// The lock-step runner against the services as processes: the same commands.
+mod lockstep;
 /// The mapper on the real capture and behind the simulator and the driver.
 mod mapper;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner.

@@ -4,22 +4,7 @@ use std::time::{Duration, Instant};
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{VelocityCommand, command_status};
 
-use crate::util::{PointsTap, Proc, bin, config_args, free_udp_port, root};
-
-/// `--config` and `--set` arguments shared by the driver and the simulator of one test.
-fn stack_args(domain: &PrivateDomain, data_port: u16, position_port: u16) -> Vec<String> {
-    let mut a = config_args(domain);
-    for s in [
-        "velodyne.input=\"udp\"".to_string(),
-        "velodyne.bind_address=\"127.0.0.1\"".into(),
-        format!("velodyne.data_port={data_port}"),
-        format!("velodyne.position_port={position_port}"),
-        "sim.udp_target=\"127.0.0.1\"".into(),
-    ] {
-        a.extend(["--set".into(), s]);
-    }
-    a
-}
+use crate::util::{PointsTap, Proc, bin, free_udp_port, root, stack_args};
 
 #[test]
 fn the_simulator_streams_to_the_driver_like_a_sensor() {

@@ -192,3 +192,18 @@ pub fn config_args(domain: &mimnav_shared::ipc::PrivateDomain) -> Vec<String> {
     a.extend(domain.set_args());
     a
 }
+
+/// `--config` and `--set` arguments shared by the driver and the simulator of one test.
+pub fn stack_args(domain: &PrivateDomain, data_port: u16, position_port: u16) -> Vec<String> {
+    let mut a = config_args(domain);
+    for s in [
+        "velodyne.input=\"udp\"".to_string(),
+        "velodyne.bind_address=\"127.0.0.1\"".into(),
+        format!("velodyne.data_port={data_port}"),
+        format!("velodyne.position_port={position_port}"),
+        "sim.udp_target=\"127.0.0.1\"".into(),
+    ] {
+        a.extend(["--set".into(), s]);
+    }
+    a
+}
