@@ -11,11 +11,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use mimnav_shared::config::{Config, VelodyneInput, toml_quote};
-use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, ValuePublisher};
-use mimnav_shared::service::{self, Health, Service, ServiceCli, SocketFd};
-use mimnav_shared::topics::{self, RawPacket};
-use mimnav_velodyne::driver::{Driver, Kind};
-use mimnav_velodyne::replay::{Next, Replay};
+use mimnav_shared::ipc;
+use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
+use mimnav_shared::topics;
+use mimnav_velodyne::driver::Driver;
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
 use mimnav_velodyne::udp::{UdpConfig, UdpSource};
 
@@ -50,6 +49,9 @@ impl ServiceCli for Args {
     }
 }
 
+mod wired;
+use wired::Wired;
+
 fn main() -> ExitCode {
     service::main("mimnav-velodyne", |args: Args, config| {
         if args.check_config {
@@ -58,48 +60,6 @@ fn main() -> ExitCode {
         }
         run(&config).map(|()| ExitCode::SUCCESS)
     })
-}
-
-/// The driver and the topics it publishes on.
-struct Wired(
-    Driver,
-    PointsPublisher,
-    ScanPublisher,
-    Option<ValuePublisher<RawPacket>>,
-);
-
-impl Wired {
-    /// One datagram through the driver; the revolution it finishes is published. With `bytes`
-    /// empty: the partial revolution at the end of a capture.
-    fn push(
-        &mut self,
-        bytes: &[u8],
-        kind: Kind,
-        host_ns: u64,
-        h: &mut Health,
-        source: &dyn Fn() -> String,
-    ) {
-        let (now, mono) = (Instant::now(), ipc::monotonic_ns());
-        let Wired(driver, points, scan, packets) = self;
-        if let Some(raw) = packets
-            .as_ref()
-            .zip(driver.raw_packet(bytes, kind, (host_ns, mono)))
-            && let Err(e) = raw.0.publish(raw.1)
-        {
-            h.faults.record("publish_failed", now, e);
-        }
-        let rev = match bytes.is_empty() {
-            true => driver.finish(),
-            false => driver.on_datagram(bytes, kind, (host_ns, mono), now, &mut h.faults, source),
-        };
-        if let Some(rev) = rev {
-            let sent = (points.publish(rev.header, &rev.points))
-                .and(scan.publish(rev.scan_header, &rev.scan));
-            if let Err(e) = sent {
-                h.faults.record("publish_failed", now, e);
-            }
-        }
-    }
 }
 
 fn run(config: &Config) -> Result<()> {
@@ -122,7 +82,7 @@ fn run(config: &Config) -> Result<()> {
     let mut wired = Wired(driver, points, scan, packets);
     let (mut health, interval) = (svc.health(), Duration::from_secs_f64(v.stats_interval_s));
     let VelodyneInput::Udp = v.input else {
-        return replay(config, &svc, &mut wired, &mut health, interval);
+        return wired::replay(config, &svc, &mut wired, &mut health, interval);
     };
     let udp = UdpConfig::from_config(v);
     let mut source = UdpSource::bind(&udp).with_context(|| format!("cannot bind UDP {udp:?}"))?;
@@ -169,72 +129,4 @@ fn run(config: &Config) -> Result<()> {
     );
     wired.0.log_summary("stopped", &health.faults);
     Ok(())
-}
-
-fn replay(
-    config: &Config,
-    svc: &Service,
-    wired: &mut Wired,
-    h: &mut Health,
-    interval: Duration,
-) -> Result<()> {
-    let v = &config.velodyne;
-    let path = v.pcap.clone().context("velodyne.pcap is not set")?;
-    let speed = (!v.replay_fast).then_some(v.replay_speed);
-    let mut replay = Replay::open(
-        &path,
-        speed,
-        (v.replay_max_gap_s * 1e9) as u64,
-        v.replay_loop,
-    )?;
-    // READY=1 once: it resets the manager's ping clock without a WATCHDOG=1, so sending it on
-    // every pass of a looped replay let the watchdog kill the driver
-    h.sd.ready(&format!("replaying {}", path.display()));
-    let mut outcome = Ok(());
-    let stopped = loop {
-        let next = match replay.next(Instant::now()) {
-            Ok(next) => next,
-            Err(e) => {
-                outcome = Err(anyhow::Error::new(e).context("replay ended early"));
-                break false;
-            }
-        };
-        match next {
-            Next::Datagram(d, due) => {
-                if !svc.sleep_until(h, due) {
-                    break true;
-                }
-                let kind = wired.0.kind(d.payload.len(), d.dst_port);
-                let at = || format!("{} byte offset {}", path.display(), d.offset);
-                wired.push(d.payload, kind, d.ts_ns, h, &at);
-                if let Some(status) = wired.0.report_if_due(Instant::now(), interval, &h.faults) {
-                    h.sd.status(&status);
-                }
-            }
-            // the partial revolution at the end of the capture
-            Next::PassEnded => wired.push(&[], Kind::Data, 0, h, &String::new),
-            Next::Finished => break false,
-        }
-        if !ipc::sleep(svc.node(), Duration::ZERO) {
-            break true;
-        }
-    };
-    wired.push(&[], Kind::Data, 0, h, &String::new);
-    let what = if stopped {
-        "replay stopped by signal"
-    } else {
-        "replay finished"
-    };
-    h.sd.stopping(what);
-    wired.0.log_summary(what, &h.faults);
-    wired.1.end_of_stream()?;
-    wired.2.end_of_stream()?;
-    if !stopped && v.replay_linger_s > 0.0 {
-        // let subscribers take the last samples before the publisher goes away
-        svc.sleep_until(
-            h,
-            Instant::now() + Duration::from_secs_f64(v.replay_linger_s),
-        );
-    }
-    outcome
 }
