@@ -15,7 +15,7 @@
 //! input = "udp"
 //! ```
 //!
-//! Every key has a documented default (see the README's config table); unknown keys, wrong types
+//! Every key has a documented default (see docs/configuration.md); unknown keys, wrong types
 //! and out-of-range values are errors that name the file, the key and what is allowed.
 //! `--set key.path=value` on a service's command line overrides one key (the value is TOML; a
 //! bare word is taken as a string).
@@ -130,8 +130,8 @@ impl LatencyConfig {
 }
 
 /// The foliage classifier (`[foliage]`): the parameters of
-/// `foliage-discrimination-rotating-ladar.txt`, scaled for a VLP-16 (the paper's values in the
-/// README).
+/// `foliage-discrimination-rotating-ladar.txt`, scaled for a VLP-16 (the paper's values in
+/// docs/configuration.md).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FoliageConfig {
@@ -403,7 +403,8 @@ pub struct LayerConfig {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MapperConfig {
-    /// The layers; empty: the paper's four, sized from the robot profile (see the README).
+    /// The layers; empty: the paper's four, sized from the robot profile
+    /// ([`MapperConfig::layers_for`]).
     #[serde(rename = "layer")]
     pub layers: Vec<LayerConfig>,
     /// Intensity full scale R: intensities are divided by it.

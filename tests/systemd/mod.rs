@@ -1,7 +1,7 @@
 //! The systemd deployment: the units as `mimnav install` places them, checked by
 //! `systemd-analyze`, and the whole stack under a real systemd *user* manager.
 //!
-//! The manager is started the safe way (README, "Testing under systemd"): never as PID 1, in a
+//! The manager is started the safe way (docs/testing.md, "The safe recipe"): never as PID 1, in a
 //! private mount namespace with a private `/run`, in an empty cgroup of its own (a user manager
 //! moves every process of the cgroup it starts in into its `init.scope`), and driven with
 //! `systemctl --user` through its private socket. The user-mode units are generated from the

@@ -132,7 +132,7 @@
 //!     grass in the simulated evaluation, the share of scans alarmed went from 92–94 % to 98–99 %.
 //!     Its price is a grass strip that stops every beam, uniformly, before a sharp far edge, which
 //!     no simulated or Beer–Lambert grass does: driving toward one 1 m deep and 1 m away, 6–18 %
-//!     of the scans alarmed instead of 0–2 % (see the README).
+//!     of the scans alarmed instead of 0–2 % (see docs/commands.md).
 //!
 //! ## Allocation and cost
 //!

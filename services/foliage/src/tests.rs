@@ -2112,7 +2112,7 @@ fn carried_scans_driving_through_grass_rarely_alarm() {
 /// the synthetic sharp-edged band with the standing-still rule off (`carry_min_travel_m = 0`), and
 /// driving toward a strip from 1 to 2 m that stops every beam uniformly before its far edge.
 #[test]
-#[ignore = "a measurement: prints the figures in the README"]
+#[ignore = "a measurement: prints the figures in docs/commands.md"]
 fn carried_scans_price() {
     for carry in [0usize, 2] {
         let params = FoliageParams {

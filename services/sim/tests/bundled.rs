@@ -1,4 +1,4 @@
-//! The capture the README's run command replays is the simulator's own output: regenerating it
+//! The capture the end-to-end tests replay is the simulator's own output: regenerating it
 //! from the shipped config gives the same bytes.
 
 use std::path::PathBuf;
@@ -33,6 +33,6 @@ fn the_bundled_capture_is_reproducible() {
     assert!(
         bytes == bundled,
         "captures/scenario2_curtain_door.pcap differs from what the simulator writes now; \
-         regenerate it with the command in the README"
+         regenerate it with the command in docs/commands.md (mimnav sim)"
     );
 }
