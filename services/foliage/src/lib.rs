@@ -149,6 +149,8 @@
 
 use std::f32::consts::{PI, TAU};
 
+use mimnav_shared::pose::{Pose2, Pose2Ext};
+
 pub mod step;
 
 /// Per-return classes reported in [`Verdict::classes`].
@@ -813,17 +815,14 @@ impl Motion {
     /// The largest turn between two scans taken as motion, radians (45°; see `MAX_STEP_M`).
     pub const MAX_TURN_RAD: f32 = PI / 4.0;
 
-    /// The motion between two poses `(x, y, yaw)` of the sensor in any fixed frame (metres,
-    /// radians): the second pose in the frame of the first.
-    pub fn between(from: [f64; 3], to: [f64; 3]) -> Motion {
-        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
-        let (sin, cos) = from[2].sin_cos();
-        let turn = (to[2] - from[2] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-            - std::f64::consts::PI;
+    /// The motion between two poses of the sensor in any fixed frame: the second pose in the
+    /// frame of the first.
+    pub fn between(from: &Pose2, to: &Pose2) -> Motion {
+        let m = from.motion_to(to);
         Motion {
-            dx_m: (cos * dx + sin * dy) as f32,
-            dy_m: (-sin * dx + cos * dy) as f32,
-            dtheta_rad: turn as f32,
+            dx_m: m.x() as f32,
+            dy_m: m.y() as f32,
+            dtheta_rad: m.yaw() as f32,
         }
     }
 

@@ -9,7 +9,7 @@
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
 use mimnav_shared::config::Config;
-use mimnav_shared::pose::{NonFiniteOdometry, check_odometry};
+use mimnav_shared::pose::{NonFiniteOdometry, Pose2, check_odometry, pose2};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, MAX_FOLIAGE_SECTORS, Odometry, ScanHeader, ScanReturn,
 };
@@ -62,7 +62,7 @@ pub struct ScanStep {
     carry: bool,
     odom_max_age_ns: u64,
     odom: Option<Odometry>,
-    last_pose: Option<[f64; 3]>,
+    last_pose: Option<Pose2>,
     angles: Vec<f32>,
     ranges: Vec<f32>,
     out: Vec<FoliageReturn>,
@@ -133,9 +133,9 @@ impl ScanStep {
             Some(o) if now.saturating_sub(o.rx_mono_ns) > self.odom_max_age_ns => {
                 (None, OdomUse::Stale)
             }
-            Some(o) => (Some([o.x, o.y, o.yaw]), OdomUse::Fresh),
+            Some(o) => (Some(pose2(o.x, o.y, o.yaw)), OdomUse::Fresh),
         };
-        let motion = (self.last_pose.zip(pose)).map(|(from, to)| Motion::between(from, to));
+        let motion = (self.last_pose.zip(pose)).map(|(from, to)| Motion::between(&from, &to));
         self.last_pose = pose;
         let verdict = self
             .classifier

@@ -2,6 +2,7 @@
 //! simulator (trunks, walls, a grass field) live here.
 
 use super::*;
+use mimnav_shared::pose::pose2;
 
 // ---------------------------------------------------------------------------------------------
 // Deterministic noise and a small planar scene simulator
@@ -1898,24 +1899,25 @@ fn fast_atan2_is_within_its_bound_of_atan2() {
 #[test]
 fn motion_between_two_poses_is_in_the_first_pose_frame() {
     // facing +y, then 0.5 m further along +y and turned 10° left: 0.5 m forward
-    let from = [1.0, 2.0, std::f64::consts::FRAC_PI_2];
-    let to = [1.0, 2.5, std::f64::consts::FRAC_PI_2 + 10f64.to_radians()];
-    let m = Motion::between(from, to);
+    let from = pose2(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+    let to = pose2(1.0, 2.5, std::f64::consts::FRAC_PI_2 + 10f64.to_radians());
+    let m = Motion::between(&from, &to);
     assert!((m.dx_m - 0.5).abs() < 1e-6 && m.dy_m.abs() < 1e-6, "{m:?}");
     assert!((m.dtheta_rad - 10f32.to_radians()).abs() < 1e-6, "{m:?}");
     // a step to the robot's left, and a turn across ±π that is 2° and not 358°
-    let m = Motion::between([0.0, 0.0, 0.0], [0.0, 0.1, 0.0]);
+    let m = Motion::between(&pose2(0.0, 0.0, 0.0), &pose2(0.0, 0.1, 0.0));
     assert!(m.dx_m.abs() < 1e-6 && (m.dy_m - 0.1).abs() < 1e-6, "{m:?}");
     let m = Motion::between(
-        [0.0, 0.0, 179f64.to_radians()],
-        [0.0, 0.0, -179f64.to_radians()],
+        &pose2(0.0, 0.0, 179f64.to_radians()),
+        &pose2(0.0, 0.0, -179f64.to_radians()),
     );
     assert!((m.dtheta_rad - 2f32.to_radians()).abs() < 1e-5, "{m:?}");
     assert!(m.is_plausible());
     // jumps and non-finite values are not motion
-    assert!(!Motion::between([0.0; 3], [3.0, 0.0, 0.0]).is_plausible());
-    assert!(!Motion::between([0.0; 3], [0.0, 0.0, 1.0]).is_plausible());
-    assert!(!Motion::between([0.0; 3], [f64::NAN, 0.0, 0.0]).is_plausible());
+    let origin = pose2(0.0, 0.0, 0.0);
+    assert!(!Motion::between(&origin, &pose2(3.0, 0.0, 0.0)).is_plausible());
+    assert!(!Motion::between(&origin, &pose2(0.0, 0.0, 1.0)).is_plausible());
+    assert!(!Motion::between(&origin, &pose2(f64::NAN, 0.0, 0.0)).is_plausible());
 }
 
 /// Classes and alarms of a classifier fed `scans` with the motion `motion_of(k)` before scan `k`.

@@ -17,6 +17,8 @@
 use std::collections::HashMap;
 
 use mimnav_shared::grid::GridSpec;
+pub use mimnav_shared::pose::Pose2;
+use mimnav_shared::pose::Pose2Ext;
 
 /// One return along a laser's ring.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,41 +88,8 @@ pub struct GlassMemory {
     cell_m: f64,
 }
 
-/// A 2-D pose in the odometry frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose2 {
-    /// x, m.
-    pub x: f64,
-    /// y, m.
-    pub y: f64,
-    /// Heading, rad.
-    pub yaw: f64,
-}
-
-impl Pose2 {
-    /// Robot frame → odometry frame (the T of equation 6).
-    pub fn to_odom(&self, x: f64, y: f64) -> (f64, f64) {
-        self.frame().to_odom(x, y)
-    }
-
-    /// Odometry frame → robot frame.
-    pub fn to_robot(&self, x: f64, y: f64) -> (f64, f64) {
-        self.frame().to_robot(x, y)
-    }
-
-    /// The pose with the sine and cosine of its heading worked out once, to move many points.
-    pub fn frame(&self) -> Frame {
-        let (s, c) = self.yaw.sin_cos();
-        Frame {
-            x: self.x,
-            y: self.y,
-            sin: s,
-            cos: c,
-        }
-    }
-}
-
-/// A [`Pose2`] ready to move points between the robot and odometry frames.
+/// A [`Pose2`] ready to move many points between the robot and odometry frames: its sine and
+/// cosine in plain numbers, for the inner loops (everything else uses [`Pose2Ext`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
     x: f64,
@@ -130,6 +99,17 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The frame of `pose`.
+    pub fn of(pose: &Pose2) -> Frame {
+        // a unit complex holds the heading's cosine and sine as they were worked out
+        Frame {
+            x: pose.translation.x,
+            y: pose.translation.y,
+            sin: pose.rotation.im,
+            cos: pose.rotation.re,
+        }
+    }
+
     /// Robot frame → odometry frame.
     #[inline]
     pub fn to_odom(&self, x: f64, y: f64) -> (f64, f64) {
@@ -171,7 +151,7 @@ impl GlassMemory {
 
     /// Adds a detection at robot-frame (x, y) seen from `pose` at `now_ns` (equation 6).
     pub fn add(&mut self, pose: &Pose2, x: f64, y: f64, now_ns: u64) {
-        let (ox, oy) = pose.to_odom(x, y);
+        let (ox, oy) = Frame::of(pose).to_odom(x, y);
         let key = (
             (ox / self.cell_m).floor() as i64,
             (oy / self.cell_m).floor() as i64,
@@ -183,7 +163,7 @@ impl GlassMemory {
     pub fn expire(&mut self, pose: &Pose2, now_ns: u64, max_age_ns: u64, max_distance_m: f64) {
         self.entries.retain(|_, (x, y, t)| {
             now_ns.saturating_sub(*t) <= max_age_ns
-                && (*x - pose.x).hypot(*y - pose.y) <= max_distance_m
+                && (*x - pose.x()).hypot(*y - pose.y()) <= max_distance_m
         });
     }
 
@@ -207,7 +187,7 @@ impl GlassMemory {
         };
         let fill = gap_fill_m > 0.0;
         let mut pts: Vec<(f64, f64)> = Vec::new();
-        let frame = pose.frame();
+        let frame = Frame::of(pose);
         for (x, y, _) in self.entries.values() {
             let (rx, ry) = frame.to_robot(*x, *y);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
@@ -373,6 +353,7 @@ pub fn extend_to_solids(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mimnav_shared::pose::pose2;
 
     fn ring(intensities: &[f32], ranges: &[f32]) -> Vec<RingReturn> {
         intensities
@@ -430,18 +411,10 @@ mod tests {
         };
         let mut m = GlassMemory::new(0.05);
         // seen 2 m ahead from the origin
-        let p0 = Pose2 {
-            x: 0.0,
-            y: 0.0,
-            yaw: 0.0,
-        };
+        let p0 = pose2(0.0, 0.0, 0.0);
         m.add(&p0, 2.0, 0.0, 0);
         // the robot drove 1 m forward and turned left 90°: the glass is now 1 m to its right
-        let p1 = Pose2 {
-            x: 1.0,
-            y: 0.0,
-            yaw: std::f64::consts::FRAC_PI_2,
-        };
+        let p1 = pose2(1.0, 0.0, std::f64::consts::FRAC_PI_2);
         let mut cells = Vec::new();
         m.draw(&p1, grid, 0.0, &mut cells, &mut vec![false; grid.len()]);
         let (r, c) = grid.cell_of(0.0, -1.0).expect("inside");
@@ -521,7 +494,7 @@ mod tests {
             cell_m: 0.05,
         };
         let mut m = GlassMemory::new(0.05);
-        let p = Pose2::default();
+        let p = Pose2::identity();
         m.add(&p, 3.0, -0.3, 0);
         m.add(&p, 3.0, 0.3, 0);
         m.add(&p, 3.0, 2.0, 0); // too far to join
@@ -542,7 +515,7 @@ mod tests {
             cell_m: 0.05,
         };
         let mut m = GlassMemory::new(0.05);
-        let p = Pose2::default();
+        let p = Pose2::identity();
         let ys: Vec<f64> = (0..=40)
             .map(|k| -1.0 + 0.05 * f64::from(k) + 0.025)
             .filter(|y| y.abs() > 0.2)

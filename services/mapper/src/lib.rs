@@ -51,7 +51,8 @@ use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{Point, cell_class, return_type};
 
-use crate::glass::{GlassMemory, Pose2, RingReturn, SpikeParams, detect_spikes};
+use crate::glass::{Frame, GlassMemory, RingReturn, SpikeParams, detect_spikes};
+use mimnav_shared::pose::{Pose2, Pose2Ext};
 
 /// Everything the mapper needs to know.
 #[derive(Debug, Clone, PartialEq)]
@@ -979,12 +980,12 @@ impl Kept {
         forget: impl Fn(usize) -> bool,
     ) {
         self.drawn.clear();
-        let frame = pose.frame();
+        let frame = Frame::of(pose);
         let mut out = 0;
         for k in 0..self.entries.len() {
             let e = self.entries[k];
             if let Some((now, age, dist)) = keep
-                && (now.saturating_sub(e.2) > age || (e.0 - pose.x).hypot(e.1 - pose.y) > dist)
+                && (now.saturating_sub(e.2) > age || (e.0 - pose.x()).hypot(e.1 - pose.y()) > dist)
             {
                 continue;
             }
@@ -1024,7 +1025,7 @@ impl Kept {
         forget: impl Fn(usize) -> bool,
     ) {
         self.place(pose, grid, Some((now_ns, max_age_ns, max_m)), forget);
-        let frame = pose.frame();
+        let frame = Frame::of(pose);
         for &(ox, oy) in &self.last {
             let (rx, ry) = frame.to_robot(ox, oy);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {

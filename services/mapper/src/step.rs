@@ -12,10 +12,9 @@
 //!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
 
 use mimnav_shared::config::Config;
-use mimnav_shared::pose::{NonFiniteOdometry, check_odometry};
+use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, pose2};
 use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
 
-use crate::glass::Pose2;
 use crate::{Mapper, MapperParams, Odom, OdomInput, UpdateStats};
 
 /// One revolution mapped: the header to publish (its `processing_us` is the caller's to fill)
@@ -95,11 +94,7 @@ impl MapStep {
             }
             Some(o) => (
                 OdomInput::Fresh(Odom {
-                    pose: Pose2 {
-                        x: o.x,
-                        y: o.y,
-                        yaw: o.yaw,
-                    },
+                    pose: pose2(o.x, o.y, o.yaw),
                     v: f64::from(o.v),
                     omega: f64::from(o.omega),
                 }),

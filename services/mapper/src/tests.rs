@@ -1,6 +1,7 @@
 //! Hand-made point sets for each equation and each class.
 
 use super::*;
+use mimnav_shared::pose::pose2;
 
 fn pt(x: f32, y: f32, z: f32, intensity: u8, laser_id: u8, rt: u8) -> Point {
     let d = (x * x + y * y + z * z).sqrt();
@@ -301,11 +302,7 @@ fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() 
     let mut m = mapper();
     m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
     // the robot moved 1 m forward; the pane is now seen only obliquely: beams pass through
-    let moved = Pose2 {
-        x: 1.0,
-        y: 0.0,
-        yaw: 0.0,
-    };
+    let moved = pose2(1.0, 0.0, 0.0);
     let through: Vec<Point> = (0..50)
         .map(|k| pt(7.0, -1.0 + 0.04 * k as f32, -0.12, 30, 14, BOTH))
         .collect();
@@ -360,7 +357,7 @@ fn rock_in_grass(scatter: impl Fn(usize) -> f32) -> Vec<Point> {
 
 fn fresh(x: f64, y: f64) -> OdomInput {
     OdomInput::Fresh(Odom {
-        pose: Pose2 { x, y, yaw: 0.0 },
+        pose: pose2(x, y, 0.0),
         v: 0.0,
         omega: 0.0,
     })

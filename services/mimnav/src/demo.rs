@@ -21,6 +21,7 @@ use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_shared::config::{Config, toml_quote};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, PrivateDomain};
+use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
 use mimnav_sim::world::WorldFile;
 
@@ -272,11 +273,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
             cells: h.cells as usize,
             cell_m: h.cell_m,
         };
-        let (s, c) = h.yaw.sin_cos();
-        let to_robot = |x: f64, y: f64| {
-            let (dx, dy) = (x - h.x, y - h.y);
-            (c * dx + s * dy, -s * dx + c * dy)
-        };
+        let robot = pose2(h.x, h.y, h.yaw);
+        let to_robot = |x: f64, y: f64| robot.to_local(x, y);
         let mut img = render_map(
             grid,
             classes,

@@ -94,7 +94,7 @@ pub struct EvalArgs {
     /// Worlds (default: the four Table I scenarios in the config's worlds folder).
     #[arg(long = "world", value_name = "FILE")]
     worlds: Vec<PathBuf>,
-    /// Methods (default: all four).
+    /// Methods (default: all five).
     #[arg(long = "method", value_enum)]
     methods: Vec<Method>,
     /// Seeds per world and method.

@@ -9,6 +9,7 @@ use mimnav_mapper::render::{Image, Marks, render_layers, render_map};
 use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening};
+use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::{MapHeader, PlanCell};
 
 /// Arguments of `mimnav snapshot`.
@@ -106,11 +107,8 @@ pub fn run(config: &Config, args: &SnapshotArgs) -> Result<ExitCode> {
         render_layers(grid, &layer_values, header.layers as usize)
     } else {
         let classes: Vec<u8> = cells.iter().map(|c| c.class).collect();
-        let goal = args.goal.as_ref().map(|g| {
-            let (s, c) = header.yaw.sin_cos();
-            let (dx, dy) = (g[0] - header.x, g[1] - header.y);
-            (c * dx + s * dy, -s * dx + c * dy)
-        });
+        let robot = pose2(header.x, header.y, header.yaw);
+        let goal = args.goal.as_ref().map(|g| robot.to_local(g[0], g[1]));
         let marks = Marks {
             robot_radius_m: config.robot.radius_m,
             goal,
