@@ -12,6 +12,8 @@ mod foliage;
 mod mapper;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner.
 mod sim;
+/// `docs/topics.md` against the types and the services the `ipc` functions create.
+mod topics_doc;
 /// The systemd units, `mimnav install`, and the stack under a real systemd user manager.
 mod systemd;
 /// Helpers: finding the binaries, the shared data, receiving revolutions.
