@@ -2,7 +2,9 @@
 //!
 //! Every test has its own private iceoryx2 domain (root path and prefix), so tests run in
 //! parallel and never meet a running stack. Tests that need the real captures in
-//! `../shared/data` print a SKIP line where the folder is missing.
+//! `../shared/data` print a SKIP line where the folder is missing, and so do the tests of the Python
+//! client where there is no Python with iceoryx2's binding (`MIMNAV_PYTHON`, which `.ci/run` sets,
+//! makes a missing one an error).
 
 /// The `mimnav` command line.
 mod cli;
@@ -12,10 +14,14 @@ mod foliage;
 mod lockstep;
 /// The mapper on the real capture and behind the simulator and the driver.
 mod mapper;
+/// The Python client on iceoryx2's binding: its contract, behind the driver, as a publisher.
+mod python_client;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner.
 mod sim;
 /// The systemd units, `mimnav install`, and the stack under a real systemd user manager.
 mod systemd;
+/// `docs/topics.md` against the types and the services the `ipc` functions create.
+mod topics_doc;
 /// Helpers: finding the binaries, the shared data, receiving revolutions.
 mod util;
 /// The VLP-16 driver as a process: replay, UDP, bad input, config errors, SIGTERM.

@@ -207,3 +207,52 @@ pub fn stack_args(domain: &PrivateDomain, data_port: u16, position_port: u16) ->
     }
     a
 }
+
+/// The environment variable naming a Python that has iceoryx2's binding (`pip install
+/// iceoryx2==0.10.0`); `.ci/run` sets it.
+pub const PYTHON_ENV: &str = "MIMNAV_PYTHON";
+
+/// A Python that imports `iceoryx2`: `MIMNAV_PYTHON`, else `target/iox2-venv/bin/python` (the venv
+/// `.ci/run` makes). None after printing a SKIP line when there is neither; a `MIMNAV_PYTHON` that
+/// cannot import iceoryx2 fails the test instead, so CI (which sets it) never skips.
+pub fn python_with_iceoryx2(test: &str) -> Option<PathBuf> {
+    let (python, explicit) = match std::env::var_os(PYTHON_ENV) {
+        Some(p) => (PathBuf::from(p), true),
+        None => (root().join("target/iox2-venv/bin/python"), false),
+    };
+    let imports = Command::new(&python)
+        .args(["-c", "import iceoryx2"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    match (imports, explicit) {
+        (true, _) => Some(python),
+        (false, true) => panic!(
+            "{PYTHON_ENV}={} cannot import iceoryx2: `pip install iceoryx2==0.10.0` into it",
+            python.display()
+        ),
+        (false, false) => {
+            println!(
+                "SKIP {test}: no Python with iceoryx2 at {} (run .ci/run, or set {PYTHON_ENV})",
+                python.display()
+            );
+            None
+        }
+    }
+}
+
+/// The lines `r` gives, on a channel, read by a thread of their own.
+pub fn lines_of(r: impl std::io::Read + Send + 'static) -> std::sync::mpsc::Receiver<String> {
+    use std::io::BufRead;
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(r).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}

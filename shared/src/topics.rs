@@ -5,6 +5,9 @@
 //! version in its name: iceoryx2 then refuses to connect an old process to a new one instead of
 //! letting it read garbage.
 //!
+//! `docs/topics.md` documents this contract for clients outside the workspace (service names,
+//! layouts with offsets, QoS, event ids); `tests/topics_doc.rs` fails when the two disagree.
+//!
 //! Every message carries a sequence number and timestamps so latency and drops can be measured
 //! end to end (DESIGN §2):
 //! - `stamp_ns`: the sensor's (or simulator's) time of the data, nanoseconds since the Unix epoch;
