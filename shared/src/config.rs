@@ -780,6 +780,8 @@ pub struct RobotProfile {
     pub max_angular_accel: f64,
     /// How long a velocity command stays valid on the base, seconds.
     pub command_validity_s: f64,
+    /// Where the lidar sits on the robot (`[robot.mount]`; its height is `sensor_height_m`).
+    pub mount: crate::pose::LidarMount,
 }
 
 impl Default for RobotProfile {
@@ -795,6 +797,7 @@ impl Default for RobotProfile {
             max_linear_accel: 0.6,
             max_angular_accel: 3.0,
             command_validity_s: 0.5,
+            mount: crate::pose::LidarMount::default(),
         }
     }
 }
@@ -995,6 +998,9 @@ impl RobotProfile {
             0.01,
             10.0,
         );
+        if let Err(e) = self.mount.validate() {
+            r.require(false, e.to_string());
+        }
     }
 }
 

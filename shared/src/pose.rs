@@ -100,10 +100,187 @@ impl Pose2Ext for Pose2 {
     }
 }
 
+/// Where the lidar sits on the robot (`robot.mount`): its optical centre `x_m` forward and
+/// `y_m` left of the robot's vertical axis, at `robot.sensor_height_m` above the ground, turned
+/// by `roll_deg`, `pitch_deg`, `yaw_deg` (REP-103: about x, y, z, applied in that order, i.e.
+/// R = Rz(yaw)·Ry(pitch)·Rx(roll)). Spot carries its VLP-16 on its back, not at its centre.
+///
+/// The mapper and the foliage classifier bring every return through [`MountTransform`] into the
+/// frame of a virtual sensor centred on the robot's axis at the same height, level and facing
+/// forward; everything downstream (layers, glass, classes, the planner) sees a centred sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LidarMount {
+    /// Forward of the robot's axis, m.
+    pub x_m: f64,
+    /// Left of the robot's axis, m.
+    pub y_m: f64,
+    /// Roll, degrees (right side down is positive).
+    pub roll_deg: f64,
+    /// Pitch, degrees (nose down is positive).
+    pub pitch_deg: f64,
+    /// Yaw, degrees (counter-clockwise from the robot's forward).
+    pub yaw_deg: f64,
+}
+
+/// A mount that cannot be right.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("robot.mount.{key} = {value} is out of range: allowed {low} to {high}")]
+pub struct MountError {
+    /// The key.
+    pub key: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// Lowest allowed.
+    pub low: f64,
+    /// Highest allowed.
+    pub high: f64,
+}
+
+impl LidarMount {
+    /// Checks every value is finite and within a range a robot can have: the sensor within 3 m
+    /// of the axis, tilted at most 45°.
+    pub fn validate(&self) -> Result<(), MountError> {
+        let checks = [
+            ("x_m", self.x_m, -3.0, 3.0),
+            ("y_m", self.y_m, -3.0, 3.0),
+            ("roll_deg", self.roll_deg, -45.0, 45.0),
+            ("pitch_deg", self.pitch_deg, -45.0, 45.0),
+            ("yaw_deg", self.yaw_deg, -180.0, 180.0),
+        ];
+        for (key, value, low, high) in checks {
+            // NaN fails both comparisons
+            if !(value >= low && value <= high) {
+                return Err(MountError {
+                    key,
+                    value,
+                    low,
+                    high,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The sensor's frame in the centred sensor's: rotation and the offset on the ground plane.
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let r = UnitQuaternion::from_euler_angles(
+            self.roll_deg.to_radians(),
+            self.pitch_deg.to_radians(),
+            self.yaw_deg.to_radians(),
+        );
+        Isometry3::from_parts(Translation3::new(self.x_m, self.y_m, 0.0), r)
+    }
+}
+
+/// A [`LidarMount`] ready for the inner loops: its rotation and offset in `f32`. `None` from
+/// [`MountTransform::of`] for a centred, level mount: then nothing is moved and the points stay
+/// bit for bit what the driver published.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MountTransform {
+    r: [[f32; 3]; 3],
+    t: [f32; 3],
+}
+
+impl MountTransform {
+    /// The transform of `mount`, or `None` when it is the identity.
+    pub fn of(mount: &LidarMount) -> Option<MountTransform> {
+        if *mount == LidarMount::default() {
+            return None;
+        }
+        Some(MountTransform::from_isometry(&mount.isometry()))
+    }
+
+    /// The inverse: the centred sensor's frame in the mounted sensor's (for tests and
+    /// simulations of a mounted sensor).
+    pub fn inverse_of(mount: &LidarMount) -> MountTransform {
+        MountTransform::from_isometry(&mount.isometry().inverse())
+    }
+
+    fn from_isometry(iso: &Isometry3<f64>) -> MountTransform {
+        let m = iso.rotation.to_rotation_matrix();
+        let r = std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)] as f32));
+        let t = iso.translation.vector;
+        MountTransform {
+            r,
+            t: [t.x as f32, t.y as f32, t.z as f32],
+        }
+    }
+
+    /// A point of the mounted sensor's frame in the centred sensor's.
+    #[inline]
+    pub fn apply(&self, [x, y, z]: [f32; 3]) -> [f32; 3] {
+        let r = &self.r;
+        [
+            r[0][0] * x + r[0][1] * y + r[0][2] * z + self.t[0],
+            r[1][0] * x + r[1][1] * y + r[1][2] * z + self.t[1],
+            r[2][0] * x + r[2][1] * y + r[2][2] * z + self.t[2],
+        ]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::f64::consts::{FRAC_PI_2, PI};
+
+    #[test]
+    fn a_mount_moves_points_into_the_centred_sensors_frame() {
+        assert_eq!(MountTransform::of(&LidarMount::default()), None);
+        // turned 90° left, 0.3 m behind the axis: what it sees ahead is left of the robot
+        let m = LidarMount {
+            x_m: -0.3,
+            yaw_deg: 90.0,
+            ..LidarMount::default()
+        };
+        let [x, y, z] = MountTransform::of(&m)
+            .expect("not centred")
+            .apply([2.0, 0.0, 0.0]);
+        assert!((x + 0.3).abs() < 1e-6 && (y - 2.0).abs() < 1e-6 && z.abs() < 1e-6);
+        // nose down 10°: a point 1 m ahead of the sensor is below the centred sensor's level
+        let m = LidarMount {
+            pitch_deg: 10.0,
+            ..LidarMount::default()
+        };
+        let [_, _, z] = MountTransform::of(&m)
+            .expect("tilted")
+            .apply([1.0, 0.0, 0.0]);
+        assert!((z + 10f32.to_radians().sin()).abs() < 1e-6, "{z}");
+        // and back
+        let m = LidarMount {
+            x_m: 0.25,
+            y_m: -0.1,
+            roll_deg: 3.0,
+            pitch_deg: -7.0,
+            yaw_deg: 170.0,
+        };
+        let p = [4.0, -1.5, 0.3];
+        let there = MountTransform::inverse_of(&m).apply(p);
+        let back = MountTransform::of(&m).expect("mounted").apply(there);
+        assert!(
+            p.iter().zip(back).all(|(a, b)| (a - b).abs() < 1e-5),
+            "{back:?}"
+        );
+    }
+
+    #[test]
+    fn an_impossible_mount_is_refused_by_key() {
+        assert!(LidarMount::default().validate().is_ok());
+        let nan = LidarMount {
+            pitch_deg: f64::NAN,
+            ..LidarMount::default()
+        };
+        assert_eq!(nan.validate().map_err(|e| e.key), Err("pitch_deg"));
+        let far = LidarMount {
+            y_m: 7.0,
+            ..LidarMount::default()
+        };
+        let e = far.validate().expect_err("7 m off the axis");
+        assert_eq!(
+            e.to_string(),
+            "robot.mount.y_m = 7 is out of range: allowed -3 to 3"
+        );
+    }
 
     #[test]
     fn to_local_and_to_fixed_are_inverse() {
