@@ -12,7 +12,7 @@
 //!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
 
 use mimnav_shared::config::Config;
-use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, pose2};
+use mimnav_shared::pose::{LidarMount, MountTransform, NonFiniteOdometry, check_odometry, pose2};
 use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
 
 use crate::{Mapper, MapperParams, Odom, OdomInput, UpdateStats};
@@ -43,6 +43,8 @@ impl Mapped {
 #[derive(Debug)]
 pub struct MapStep {
     mapper: Mapper,
+    mount: Option<MountTransform>,
+    mounted: Vec<Point>,
     odom_max_age_ns: u64,
     odom: Option<Odometry>,
     seq: u64,
@@ -53,18 +55,28 @@ impl MapStep {
     pub fn new(params: MapperParams, odom_max_age_ns: u64) -> Self {
         MapStep {
             mapper: Mapper::new(params),
+            mount: None,
+            mounted: Vec::new(),
             odom_max_age_ns,
             odom: None,
             seq: 0,
         }
     }
 
-    /// The step of the config's `[mapper]`, `[map]` and `[robot]`.
+    /// The step of the config's `[mapper]`, `[map]` and `[robot]` (with `robot.mount`).
     pub fn from_config(config: &Config) -> Self {
         MapStep::new(
             MapperParams::from_config(config),
             (config.mapper.odom_max_age_s * 1e9) as u64,
         )
+        .with_mount(&config.robot.mount)
+    }
+
+    /// The lidar sits at `mount` on the robot: every revolution is first brought into the frame
+    /// of a sensor centred on the robot's axis ([`mount_points`]).
+    pub fn with_mount(mut self, mount: &LidarMount) -> Self {
+        self.mount = MountTransform::of(mount);
+        self
     }
 
     /// The mapper: the last map's classes, cost and layers.
@@ -101,6 +113,13 @@ impl MapStep {
                 0,
             ),
         };
+        let points = match &self.mount {
+            Some(t) => {
+                mount_points(t, points, &mut self.mounted);
+                &self.mounted
+            }
+            None => points,
+        };
         let stats = self.mapper.update(points, input, h.stamp_ns);
         let o = self.odom.unwrap_or_default();
         let grid = self.mapper.params().grid;
@@ -124,6 +143,29 @@ impl MapStep {
         self.seq += 1;
         Mapped { header, stats }
     }
+}
+
+/// `points` of a sensor mounted by `t`, as a sensor centred on the robot's axis (at the same
+/// height, level, facing forward) would give them: position, distance and azimuth move; the
+/// firing (time, laser, ring), intensity and return type stay. The mapper's layers, rings and
+/// reach then read as they do for a centred sensor.
+pub fn mount_points(t: &MountTransform, points: &[Point], out: &mut Vec<Point>) {
+    out.clear();
+    out.extend(points.iter().map(|p| {
+        let [x, y, z] = t.apply([p.x, p.y, p.z]);
+        let d = (x * x + y * y + z * z).sqrt();
+        // clockwise seen from above, as the sensor counts
+        let az = (-y.atan2(x)).to_degrees() * 100.0;
+        Point {
+            x,
+            y,
+            z,
+            // `as` saturates: beyond 131 m is beyond the sensor's range anyway
+            distance_raw: ((d / 0.002).round() as u16).max(1),
+            azimuth_cdeg: (az.round() as i32).rem_euclid(36000) as u16,
+            ..*p
+        }
+    }));
 }
 
 #[cfg(test)]
