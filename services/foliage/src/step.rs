@@ -9,7 +9,9 @@
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
 use mimnav_shared::config::Config;
-use mimnav_shared::pose::{NonFiniteOdometry, Pose2, check_odometry, pose2};
+use mimnav_shared::pose::{
+    LidarMount, MountTransform, NonFiniteOdometry, Pose2, check_odometry, pose2,
+};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, MAX_FOLIAGE_SECTORS, Odometry, ScanHeader, ScanReturn,
 };
@@ -59,6 +61,7 @@ pub struct Classified<'a> {
 #[derive(Debug)]
 pub struct ScanStep {
     classifier: Classifier,
+    mount: Option<MountTransform>,
     carry: bool,
     odom_max_age_ns: u64,
     odom: Option<Odometry>,
@@ -77,6 +80,7 @@ impl ScanStep {
         }
         Ok(ScanStep {
             classifier: Classifier::new(params).map_err(StepError::Params)?,
+            mount: None,
             carry: params.carry_scans > 0,
             odom_max_age_ns,
             odom: None,
@@ -88,12 +92,21 @@ impl ScanStep {
         })
     }
 
-    /// The step of the config's `[foliage]`.
+    /// The step of the config's `[foliage]` (and `robot.mount`).
     pub fn from_config(config: &Config) -> Result<Self, StepError> {
-        ScanStep::new(
+        let step = ScanStep::new(
             FoliageParams::from_config(&config.foliage),
             (config.foliage.odom_max_age_s * 1e9) as u64,
-        )
+        )?;
+        Ok(step.with_mount(&config.robot.mount))
+    }
+
+    /// The lidar sits at `mount` on the robot: every return is first brought into the frame of
+    /// a sensor centred on the robot's axis (its bearing and horizontal range from there), so
+    /// the sectors, the carried scans and the planner's obstacles are the robot's.
+    pub fn with_mount(mut self, mount: &LidarMount) -> Self {
+        self.mount = MountTransform::of(mount);
+        self
     }
 
     /// The classifier's settings.
@@ -124,8 +137,17 @@ impl ScanStep {
         self.angles.clear();
         self.ranges.clear();
         for r in returns {
-            self.angles.push(r.angle_rad);
-            self.ranges.push(r.range_m);
+            let (angle, range) = match &self.mount {
+                // no return stays no return
+                Some(t) if r.range_m > 0.0 => {
+                    let (s, c) = r.angle_rad.sin_cos();
+                    let [x, y, _] = t.apply([r.range_m * c, r.range_m * s, 0.0]);
+                    (y.atan2(x), x.hypot(y))
+                }
+                _ => (r.angle_rad, r.range_m),
+            };
+            self.angles.push(angle);
+            self.ranges.push(range);
         }
         let (pose, odometry) = match self.odom {
             _ if !self.carry => (None, OdomUse::Off),
@@ -248,6 +270,58 @@ mod tests {
         assert_eq!(hd.alarm, 1, "{hd:?}");
         assert!(hd.nearest_m[..hd.sectors as usize].iter().any(|&m| m < 2.5));
         assert_eq!(s.scans(), 4);
+    }
+
+    #[test]
+    fn a_mounted_sensor_classifies_like_a_centred_one() {
+        // the sensor 0.3 m behind the axis and turned 40° left: its returns, as it reports them
+        let mount = LidarMount {
+            x_m: -0.3,
+            yaw_deg: 40.0,
+            ..LidarMount::default()
+        };
+        let (h, centred) = wall();
+        let inverse = MountTransform::inverse_of(&mount);
+        let as_mounted: Vec<ScanReturn> = (centred.iter())
+            .map(|r| {
+                if r.range_m <= 0.0 {
+                    return *r;
+                }
+                let (sn, cs) = r.angle_rad.sin_cos();
+                let [x, y, _] = inverse.apply([r.range_m * cs, r.range_m * sn, 0.0]);
+                ScanReturn {
+                    angle_rad: y.atan2(x),
+                    range_m: x.hypot(y),
+                    ..*r
+                }
+            })
+            .collect();
+        let (mut a, mut b) = (step(), step().with_mount(&mount));
+        let mut ignoring = step();
+        for k in 0..4 {
+            let now = 10 * S + k * S / 10;
+            let ca = a.scan(&h, &centred, now);
+            let (ha, ra) = (ca.header, ca.returns.to_vec());
+            let cb = b.scan(&h, &as_mounted, now);
+            assert_eq!(
+                (cb.header.alarm, cb.header.obstacles),
+                (ha.alarm, ha.obstacles)
+            );
+            for (x, y) in ra.iter().zip(cb.returns) {
+                assert_eq!(x.class, y.class);
+                assert!(
+                    (x.range_m - y.range_m).abs() < 1e-4
+                        && (x.angle_rad - y.angle_rad).abs() < 1e-4
+                );
+            }
+            // the same returns taken as a centred sensor's put the wall elsewhere
+            let ci = ignoring.scan(&h, &as_mounted, now);
+            let hits = ra.iter().filter(|x| x.range_m > 0.0).count();
+            let moved = (ra.iter().zip(ci.returns))
+                .filter(|(x, y)| x.range_m > 0.0 && (x.angle_rad - y.angle_rad).abs() > 0.5)
+                .count();
+            assert!(hits > 100 && moved == hits, "{moved} of {hits}");
+        }
     }
 
     #[test]
