@@ -127,6 +127,7 @@ impl SimSettings {
                 },
                 product: 0x22,
                 sensor_height_m: r.sensor_height_m,
+                mount: r.mount,
                 physics: PhysicsParams {
                     range_noise_m: s.range_noise_m,
                     intensity_noise: s.intensity_noise,

@@ -7,6 +7,7 @@
 //! azimuth is the azimuth of the block's first firing. The packet timestamp is its first firing,
 //! in µs past the top of the hour.
 
+use mimnav_shared::pose::{LidarMount, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
 use mimnav_velodyne::packet::{
     BLOCKS, CHANNELS, LASERS, POSITION_PACKET_LEN, VLP16_ELEVATION_DEG, encode_data_packet,
@@ -35,6 +36,8 @@ pub struct LidarConfig {
     pub product: u8,
     /// Height of the optical centre above the ground, m.
     pub sensor_height_m: f64,
+    /// Where the sensor sits on the robot (`robot.mount`): off the axis, yawed, tilted.
+    pub mount: LidarMount,
     /// Beam physics.
     pub physics: PhysicsParams,
 }
@@ -46,6 +49,7 @@ impl Default for LidarConfig {
             return_mode: return_mode::DUAL,
             product: 0x22,
             sensor_height_m: 0.5,
+            mount: LidarMount::default(),
             physics: PhysicsParams::default(),
         }
     }
@@ -62,6 +66,8 @@ pub struct Vlp16 {
     sin_elev: [f64; LASERS],
     epoch_ns: u64,
     elapsed_ns: u64,
+    /// The mount's roll and pitch (Ry·Rx), when the sensor is tilted.
+    tilt: Option<[[f64; 3]; 3]>,
 }
 
 /// How far off a beam may pass an object's bounding circle and still be tested: covers the
@@ -80,7 +86,6 @@ impl Vlp16 {
             sin_elev[i] = r.sin();
         }
         Vlp16 {
-            config,
             rng: fastrand::Rng::with_seed(seed),
             // the grass is drawn apart from the per-beam noise
             caster: BeamCaster::new(seed ^ 0x6772_6173_735f_6669),
@@ -89,6 +94,32 @@ impl Vlp16 {
             sin_elev,
             epoch_ns,
             elapsed_ns: 0,
+            tilt: (config.mount.roll_deg != 0.0 || config.mount.pitch_deg != 0.0).then(|| {
+                let level = LidarMount {
+                    yaw_deg: 0.0,
+                    x_m: 0.0,
+                    y_m: 0.0,
+                    ..config.mount
+                };
+                let m = level.isometry().rotation.to_rotation_matrix();
+                std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
+            }),
+            config,
+        }
+    }
+
+    /// The sensor's pose on the ground plane when the robot's base is at `base`: the mount's
+    /// offset and yaw composed onto the base's pose.
+    pub fn sensor_pose(&self, base: Pose) -> Pose {
+        let m = &self.config.mount;
+        if m.x_m == 0.0 && m.y_m == 0.0 && m.yaw_deg == 0.0 {
+            return base;
+        }
+        let p = pose2(base.x, base.y, base.yaw) * pose2(m.x_m, m.y_m, m.yaw_deg.to_radians());
+        Pose {
+            x: p.x(),
+            y: p.y(),
+            yaw: p.yaw(),
         }
     }
 
@@ -119,7 +150,8 @@ impl Vlp16 {
 
     /// Casts every firing of the next packet from `pose` and encodes it; the sensor's clock moves
     /// on by one packet.
-    pub fn next_packet(&mut self, scene: &Scene, pose: Pose) -> [u8; DATA_PACKET_LEN] {
+    pub fn next_packet(&mut self, scene: &Scene, base: Pose) -> [u8; DATA_PACKET_LEN] {
+        let pose = self.sensor_pose(base);
         let dual = self.config.return_mode == return_mode::DUAL;
         let t0 = self.elapsed_ns;
         let mut blocks = [(0u16, [(0u16, 0u8); CHANNELS]); BLOCKS];
@@ -155,7 +187,8 @@ impl Vlp16 {
     /// [`Vlp16::next_packet`] casts for it (origin, direction and azimuth), for ground truth
     /// about what one laser can see (`mimnav foliage-eval`). `out` is cleared first; the
     /// sensor's clock does not move.
-    pub fn next_beams(&self, pose: Pose, laser: usize, out: &mut Vec<Beam>) {
+    pub fn next_beams(&self, base: Pose, laser: usize, out: &mut Vec<Beam>) {
+        let pose = self.sensor_pose(base);
         out.clear();
         let laser = laser % LASERS;
         let dual = self.config.return_mode == return_mode::DUAL;
@@ -174,13 +207,26 @@ impl Vlp16 {
 
     /// Unit direction of `laser`'s beam at azimuth `az_deg` (clockwise from forward) from `pose`.
     fn direction(&self, pose: Pose, laser: usize, az_deg: f64) -> [f64; 3] {
-        let heading = pose.yaw - az_deg.to_radians();
-        let (s, c) = heading.sin_cos();
-        [
+        let Some(r) = &self.tilt else {
+            let heading = pose.yaw - az_deg.to_radians();
+            let (s, c) = heading.sin_cos();
+            return [
+                self.cos_elev[laser] * c,
+                self.cos_elev[laser] * s,
+                self.sin_elev[laser],
+            ];
+        };
+        // in the sensor's frame, tilted by the mount's roll and pitch, then turned by the
+        // sensor's heading
+        let (s, c) = (-az_deg.to_radians()).sin_cos();
+        let d = [
             self.cos_elev[laser] * c,
             self.cos_elev[laser] * s,
             self.sin_elev[laser],
-        ]
+        ];
+        let t: [f64; 3] = std::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
+        let (s, c) = pose.yaw.sin_cos();
+        [c * t[0] - s * t[1], s * t[0] + c * t[1], t[2]]
     }
 
     /// Objects whose bounding circle the beam at azimuth `az_deg` passes near.
@@ -188,6 +234,11 @@ impl Vlp16 {
         let heading = pose.yaw - az_deg.to_radians();
         let (uy, ux) = heading.sin_cos();
         self.candidates.clear();
+        if self.tilt.is_some() {
+            // a tilted beam leaves the vertical plane of its azimuth: test every object
+            self.candidates.extend(0..scene.objects.len());
+            return;
+        }
         for (i, obj) in scene.objects.iter().enumerate() {
             let (c, r) = obj.bound;
             let (dx, dy) = (c[0] - pose.x, c[1] - pose.y);
