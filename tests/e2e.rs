@@ -16,7 +16,8 @@ mod lockstep;
 mod mapper;
 /// The Python client on iceoryx2's binding: its contract, behind the driver, as a publisher.
 mod python_client;
-/// The simulator streaming to the driver, and lock-step with a stand-in planner.
+/// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
+/// stack in lock-step is in `lockstep`).
 mod sim;
 /// The systemd units, `mimnav install`, and the stack under a real systemd user manager.
 mod systemd;

@@ -106,13 +106,10 @@ fn foliage_eval(world: &str, extra: &[&str]) -> (String, String, bool) {
 }
 
 /// The value of `"key":N` in a JSON line (the first one).
-fn json_number(line: &str, key: &str) -> Option<u64> {
-    let from = line.find(&format!("\"{key}\":"))? + key.len() + 3;
-    let digits: String = line[from..]
-        .chars()
-        .take_while(|c| c.is_ascii_digit())
-        .collect();
-    digits.parse().ok()
+fn json_lines(stdout: &str) -> Vec<serde_json::Value> {
+    (stdout.lines().filter(|l| l.starts_with('{')))
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
 }
 
 #[test]
@@ -121,12 +118,15 @@ fn foliage_eval_counts_no_false_alarm_in_dense_grass() {
     // classifier must not alarm once (the target is at most 1 in 1000).
     let (stdout, stderr, ok) = foliage_eval("grass_dense", &["--scans", "100"]);
     assert!(ok, "{stdout}\n{stderr}");
-    let episodes: Vec<&str> = stdout.lines().filter(|l| l.starts_with('{')).collect();
+    let episodes = json_lines(&stdout);
     assert_eq!(episodes.len(), 2, "standing and moving: {stdout}");
     for e in &episodes {
-        assert_eq!(json_number(e, "scans"), Some(100), "{e}");
-        assert_eq!(json_number(e, "false_alarms"), Some(0), "{e}");
-        assert_eq!(json_number(e, "alarms"), Some(0), "{e}");
+        assert_eq!(
+            (e["scans"].as_u64(), e["false_alarms"].as_u64()),
+            (Some(100), Some(0)),
+            "{e}"
+        );
+        assert_eq!(e["alarms"].as_u64(), Some(0), "{e}");
     }
     assert!(
         stdout.contains("| foliage: dense grass |"),
@@ -146,31 +146,34 @@ fn foliage_eval_alarms_on_a_trunk_in_the_clear_from_the_second_scan() {
         &["--scans", "20", "--motion", "standing"],
     );
     assert!(ok, "{stdout}\n{stderr}");
-    let episode = stdout
-        .lines()
-        .find(|l| l.starts_with('{'))
+    let episodes = json_lines(&stdout);
+    let episode = episodes
+        .first()
         .unwrap_or_else(|| panic!("no episode in {stdout}"));
-    assert_eq!(json_number(episode, "false_alarms"), Some(0), "{episode}");
-    let obstacles: Vec<&str> = episode.split("{\"object\":").skip(1).collect();
-    let trunk = obstacles
-        .iter()
-        .find(|o| o.contains("trunk 0.30 m wide") && json_number(o, "in_range") == Some(20))
-        .unwrap_or_else(|| panic!("the trunk at (2, 1) in {episode}"));
-    assert_eq!(json_number(trunk, "visible"), Some(20), "{trunk}");
-    assert_eq!(json_number(trunk, "alarmed"), Some(19), "{trunk}");
-    assert_eq!(json_number(trunk, "delay_scans"), Some(1), "{trunk}");
+    assert_eq!(episode["false_alarms"], 0, "{episode}");
+    let obstacles = episode["obstacles"].as_array().expect("obstacles");
+    let find = |label: &str| {
+        (obstacles.iter())
+            .find(|o| o["label"] == label && o["in_range"] == 20)
+            .unwrap_or_else(|| panic!("{label} in range in {episode}"))
+    };
+    let trunk = find("trunk 0.30 m wide, 5.00 m tall");
+    let counts = |o: &serde_json::Value, keys: &[&str]| -> Vec<Option<u64>> {
+        keys.iter().map(|k| o[*k].as_u64()).collect()
+    };
     // in the clear every view of it is a run of neighbouring returns
-    assert_eq!(json_number(trunk, "visible_run"), Some(20), "{trunk}");
-    assert_eq!(json_number(trunk, "alarmed_run"), Some(19), "{trunk}");
-    let rock = obstacles
-        .iter()
-        .find(|o| {
-            o.contains("rock 0.50 m wide, 0.35 m tall") && json_number(o, "in_range") == Some(20)
-        })
-        .unwrap_or_else(|| panic!("the rock at (3, -1) in {episode}"));
-    assert_eq!(json_number(rock, "out_of_beam"), Some(20), "{rock}");
-    assert_eq!(json_number(rock, "visible"), Some(0), "{rock}");
-    assert_eq!(json_number(rock, "visible_run"), Some(0), "{rock}");
+    let keys = [
+        "visible",
+        "alarmed",
+        "delay_scans",
+        "visible_run",
+        "alarmed_run",
+    ];
+    let want = [20, 19, 1, 20, 19].map(Some);
+    assert_eq!(counts(trunk, &keys), want, "{trunk}");
+    let rock = find("rock 0.50 m wide, 0.35 m tall");
+    let keys = ["out_of_beam", "visible", "visible_run"];
+    assert_eq!(counts(rock, &keys), [20, 0, 0].map(Some), "{rock}");
     // no 0.3 m trunk 2 m away spans 200 consecutive firings (0.2° apart)
     let (stdout, stderr, ok) = foliage_eval(
         "obstacles_clear",

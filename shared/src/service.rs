@@ -114,6 +114,31 @@ pub struct Health {
     pub faults: Faults,
 }
 
+impl Health {
+    /// Hands the newest value waiting on `sub` (if any) to `take`: a failed receive is counted
+    /// as `receive_failed`, a value `take` refuses as `refused`, each logged at a limited rate.
+    pub fn take_latest<T, E>(
+        &mut self,
+        sub: &ipc::ValueSubscriber<T>,
+        now: Instant,
+        refused: &'static str,
+        take: impl FnOnce(&T) -> Result<(), E>,
+    ) where
+        T: std::fmt::Debug + ZeroCopySend + Copy + 'static,
+        E: Display,
+    {
+        match sub.latest() {
+            Ok(Some(v)) => {
+                if let Err(e) = take(&v) {
+                    self.faults.record(refused, now, e);
+                }
+            }
+            Ok(None) => {}
+            Err(e) => _ = self.faults.record("receive_failed", now, e),
+        }
+    }
+}
+
 /// One wake-up of the loop: what woke it and when.
 #[derive(Debug)]
 pub struct Turn {

@@ -60,15 +60,7 @@ fn run(config: &Config) -> Result<()> {
     let mut health = svc.health();
     svc.run(&mut health, "waiting for lidar/scan2d", |turn, h| {
         let _ = (odom_sub.heard(), scans.heard());
-        match odom_sub.latest() {
-            Ok(Some(o)) => {
-                _ = step
-                    .odom(&o)
-                    .map_err(|e| h.faults.record("bad_odom", turn.now, e))
-            }
-            Ok(None) => {}
-            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
-        }
+        h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
         loop {
             let sample = match scans.receive() {
                 Ok(Some(s)) => s,

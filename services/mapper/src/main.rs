@@ -69,15 +69,7 @@ fn run(config: &Config) -> Result<()> {
             h.faults.record("stale_points", turn.now, what);
         }
         let _ = (odom_sub.heard(), points.heard());
-        match odom_sub.latest() {
-            Ok(Some(o)) => {
-                _ = step
-                    .odom(&o)
-                    .map_err(|e| h.faults.record("bad_odom", turn.now, e))
-            }
-            Ok(None) => {}
-            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
-        }
+        h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
         loop {
             let sample = match points.receive() {
                 Ok(Some(s)) => s,

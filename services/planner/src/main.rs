@@ -112,23 +112,14 @@ fn run(config: &Config) -> Result<()> {
                 }
             }
         }
-        match odom_sub.latest() {
-            Ok(Some(o)) => {
-                _ = pilot
-                    .odom(&o)
-                    .map_err(|e| h.faults.record("bad_odom", turn.now, e))
+        h.take_latest(&odom_sub, turn.now, "bad_odom", |o| pilot.odom(o));
+        h.take_latest(&goal_sub, turn.now, "bad_goal", |g| {
+            let taken = pilot.goal(g);
+            if taken.is_ok() {
+                tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal");
             }
-            Ok(None) => {}
-            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
-        }
-        match goal_sub.latest() {
-            Ok(Some(g)) => match pilot.goal(&g) {
-                Ok(()) => tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal"),
-                Err(e) => _ = h.faults.record("bad_goal", turn.now, e),
-            },
-            Ok(None) => {}
-            Err(e) => _ = h.faults.record("receive_failed", turn.now, e),
-        }
+            taken
+        });
         let mut planned = false;
         while let Ok(Some(sample)) = plan_sub.receive() {
             let (header, arrived) = (*sample.user_header(), ipc::monotonic_ns());
