@@ -74,7 +74,11 @@ fn main() {
         }
     }
     if json {
-        println!("{{\"packets_per_s\": {best_pps:.0}, \"points_per_s\": {best_points:.0}}}");
+        let line = serde_json::json!({
+            "packets_per_s": best_pps.round(),
+            "points_per_s": best_points.round(),
+        });
+        println!("{line}");
     } else {
         println!(
             "mimnav-velodyne decode: {:.0} packets/s, {:.1} M points/s (dual capture, in memory, \
