@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// The foliage classifier (`[foliage]`): the parameters of
 /// `foliage-discrimination-rotating-ladar.txt`, scaled for a VLP-16 (the paper's values in the
@@ -74,7 +74,9 @@ impl Default for FoliageConfig {
 }
 
 impl FoliageConfig {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[foliage]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("foliage.k1", self.k1, 0.0, 10.0);
         r.check("foliage.delta", self.delta, 0.0, 10.0);
         r.check("foliage.k2", self.k2, 0.0, 10.0);
@@ -85,6 +87,7 @@ impl FoliageConfig {
         r.check("foliage.d_max_m", self.d_max_m, 0.0, 200.0);
         r.require(
             self.d_min_m < self.d_max_m,
+            "foliage.d_min_m",
             format!(
                 "foliage.d_min_m = {} must be below foliage.d_max_m = {}",
                 self.d_min_m, self.d_max_m
@@ -107,5 +110,6 @@ impl FoliageConfig {
             0.0,
             self.thin_window as f64,
         );
+        r.finish()
     }
 }

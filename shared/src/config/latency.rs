@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// The services' latency settings (`[latency]`); both default to 0.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -20,7 +20,9 @@ pub struct LatencyConfig {
 }
 
 impl LatencyConfig {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[latency]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check(
             "latency.cpu_wakeup_us",
             f64::from(self.cpu_wakeup_us),
@@ -33,5 +35,6 @@ impl LatencyConfig {
             0.0,
             99.0,
         );
+        r.finish()
     }
 }

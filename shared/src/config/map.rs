@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// The robot-centred map grid (`[map]`), shared by the mapper, the planner and the simulator's
 /// ground truth.
@@ -33,8 +33,11 @@ impl MapConfig {
         }
     }
 
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[map]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("map.cells", self.cells as f64, 10.0, 2000.0);
         r.check("map.cell_m", self.cell_m, 0.01, 1.0);
+        r.finish()
     }
 }

@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 use super::robot::RobotProfile;
 
 /// Unit of a map layer's height interval.
@@ -168,7 +168,9 @@ impl MapperConfig {
         ]
     }
 
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[mapper]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("mapper.full_scale", self.full_scale, 1.0, 255.0);
         r.check("mapper.gamma", self.gamma, 0.0, 1.0);
         r.check("mapper.solid_max", self.solid_max, 0.0, 2.55);
@@ -200,6 +202,7 @@ impl MapperConfig {
         );
         r.require(
             self.surface_neighbours <= 2 * self.surface_window,
+            "mapper.surface_neighbours",
             format!(
                 "mapper.surface_neighbours = {} must be at most 2 × mapper.surface_window = {}",
                 self.surface_neighbours,
@@ -252,6 +255,7 @@ impl MapperConfig {
         for (i, l) in self.layers.iter().enumerate() {
             r.require(
                 l.low < l.high,
+                format!("mapper.layer[{i}]"),
                 format!(
                     "mapper.layer[{i}] ({}): low = {} must be below high = {}",
                     l.name, l.low, l.high
@@ -262,9 +266,11 @@ impl MapperConfig {
             for role in ["below", "above", "zero", "minus_eps"] {
                 r.require(
                     self.layers.iter().any(|l| l.name == role),
+                    "mapper.layer",
                     format!("mapper.layer: a layer named \"{role}\" is needed (equations 3 and 6 use it)"),
                 );
             }
         }
+        r.finish()
     }
 }

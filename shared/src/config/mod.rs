@@ -20,6 +20,7 @@
 //! `--set key.path=value` on a service's command line overrides one key (the value is TOML; a
 //! bare word is taken as a string).
 
+mod check;
 mod foliage;
 mod iceoryx2;
 mod latency;
@@ -37,6 +38,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
+pub use check::{Allowed, Checks, Invalid, ParamError};
 pub use foliage::FoliageConfig;
 pub use iceoryx2::{DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT};
 use iceoryx2::{iceoryx2_config, project_iceoryx2_defaults};
@@ -117,24 +119,6 @@ struct FileConfig {
     planner: PlannerConfig,
     foliage: FoliageConfig,
     latency: LatencyConfig,
-}
-
-/// Collects range violations as "key = value is out of range: allowed …".
-pub(super) struct Ranges(Vec<String>);
-
-impl Ranges {
-    pub(super) fn check(&mut self, key: &str, value: f64, lo: f64, hi: f64) {
-        if !(value >= lo && value <= hi) {
-            self.0.push(format!(
-                "{key} = {value} is out of range: allowed {lo} to {hi}"
-            ));
-        }
-    }
-    pub(super) fn require(&mut self, ok: bool, message: impl Into<String>) {
-        if !ok {
-            self.0.push(message.into());
-        }
-    }
 }
 
 impl Default for Config {
@@ -269,32 +253,37 @@ impl Config {
             foliage: file.foliage,
             latency: file.latency,
         };
-        let mut r = Ranges(Vec::new());
-        config.robot.validate(&mut r);
-        config.velodyne.validate(&mut r);
-        config.map.validate(&mut r);
-        config.sim.validate(&mut r);
-        config.mapper.validate(&mut r);
-        config.planner.validate(&mut r);
-        config.foliage.validate(&mut r);
-        config.latency.validate(&mut r);
+        config.validate().map_err(|e| err(&source, e.to_string()))?;
+        Ok(config)
+    }
+
+    /// Checks every section and the rules between sections: every value refused, each naming
+    /// its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
+        r.merge(self.robot.validate());
+        r.merge(self.velodyne.validate());
+        r.merge(self.map.validate());
+        r.merge(self.sim.validate());
+        r.merge(self.mapper.validate());
+        r.merge(self.planner.validate());
+        r.merge(self.foliage.validate());
+        r.merge(self.latency.validate());
         // a map comes once per revolution: a shorter limit would call every map stale
-        let revolution_s = 60.0 / config.velodyne.rpm;
+        let revolution_s = 60.0 / self.velodyne.rpm;
         r.require(
-            !(300.0..=1200.0).contains(&config.velodyne.rpm)
-                || config.planner.map_max_age_s >= 1.2 * revolution_s,
+            !(300.0..=1200.0).contains(&self.velodyne.rpm)
+                || self.planner.map_max_age_s >= 1.2 * revolution_s,
+            "planner.map_max_age_s",
             format!(
                 "planner.map_max_age_s = {} is shorter than 1.2 revolutions at velodyne.rpm = {} \
                  ({:.3} s): every map would be stale",
-                config.planner.map_max_age_s,
-                config.velodyne.rpm,
+                self.planner.map_max_age_s,
+                self.velodyne.rpm,
                 1.2 * revolution_s
             ),
         );
-        if !r.0.is_empty() {
-            return Err(err(&source, r.0.join("; ")));
-        }
-        Ok(config)
+        r.finish()
     }
 
     /// `[robot]`: `profile = NAME` loads `robots/NAME.toml` beside the config file; the other
@@ -403,6 +392,24 @@ mod tests {
         );
         let e = parse("[velodyne]\ninput = \"pcap\"\n").expect_err("pcap without file");
         assert!(e.to_string().contains("velodyne.pcap"), "{e}");
+    }
+
+    #[test]
+    fn a_section_checked_alone_gives_typed_errors() {
+        let v = VelodyneConfig {
+            rpm: 50.0,
+            ..VelodyneConfig::default()
+        };
+        let e = v.validate().expect_err("rpm");
+        assert_eq!(
+            e.get("velodyne.rpm"),
+            Some(&ParamError::OutOfRange {
+                key: "velodyne.rpm".into(),
+                value: 50.0,
+                allowed: Allowed::closed(300.0, 1200.0),
+            })
+        );
+        assert_eq!(Config::default().validate(), Ok(()));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// How the planner inflates obstacles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -91,10 +91,13 @@ impl Default for PlannerConfig {
 }
 
 impl PlannerConfig {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[planner]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("planner.kernel_cells", self.kernel_cells as f64, 1.0, 101.0);
         r.require(
             self.kernel_cells % 2 == 1,
+            "planner.kernel_cells",
             format!("planner.kernel_cells = {} must be odd", self.kernel_cells),
         );
         r.check(
@@ -139,5 +142,6 @@ impl PlannerConfig {
         r.check("planner.map_max_age_s", self.map_max_age_s, 0.01, 60.0);
         r.check("planner.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check("planner.goal_max_age_s", self.goal_max_age_s, 0.0, 86400.0);
+        r.finish()
     }
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// A robot: footprint, sensor mounting and motion limits (`config/robots/NAME.toml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -46,7 +46,9 @@ impl Default for RobotProfile {
 }
 
 impl RobotProfile {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[robot]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("robot.radius_m", self.radius_m, 0.05, 3.0);
         r.check("robot.sensor_height_m", self.sensor_height_m, 0.05, 3.0);
         r.check("robot.height_m", self.height_m, 0.05, 3.0);
@@ -65,5 +67,6 @@ impl RobotProfile {
             0.01,
             10.0,
         );
+        r.finish()
     }
 }

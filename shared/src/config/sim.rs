@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// Return mode the simulated sensor is set to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -69,7 +69,9 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[sim]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("sim.range_noise_m", self.range_noise_m, 0.0, 0.5);
         r.check("sim.intensity_noise", self.intensity_noise, 0.0, 50.0);
         r.check("sim.glass_specular_deg", self.glass_specular_deg, 0.1, 30.0);
@@ -80,6 +82,7 @@ impl SimConfig {
             600.0,
         );
         r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
+        r.finish()
     }
 
     /// The world file, relative paths taken from `config_dir`.

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::Ranges;
+use super::check::{Checks, Invalid};
 
 /// Where the driver's datagrams come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -107,7 +107,9 @@ impl Default for VelodyneConfig {
 }
 
 impl VelodyneConfig {
-    pub(super) fn validate(&self, r: &mut Ranges) {
+    /// Checks every key of `[velodyne]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
         r.check("velodyne.replay_speed", self.replay_speed, 0.01, 100.0);
         r.check(
             "velodyne.replay_max_gap_s",
@@ -124,6 +126,7 @@ impl VelodyneConfig {
         r.check("velodyne.max_range_m", self.max_range_m, 0.1, 200.0);
         r.require(
             self.min_range_m < self.max_range_m,
+            "velodyne.min_range_m",
             format!(
                 "velodyne.min_range_m = {} must be below velodyne.max_range_m = {}",
                 self.min_range_m, self.max_range_m
@@ -144,7 +147,9 @@ impl VelodyneConfig {
         );
         r.require(
             self.input != VelodyneInput::Pcap || self.pcap.is_some(),
+            "velodyne.pcap",
             "velodyne.input = \"pcap\" needs velodyne.pcap = \"FILE\"",
         );
+        r.finish()
     }
 }
