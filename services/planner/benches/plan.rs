@@ -115,8 +115,11 @@ fn breakdown(config: &Config, maps: &[Case]) {
         params.padding_cells,
         params.kernel_angles,
     );
-    let (mut cost, mut clear, mut route) =
-        (Vec::new(), dwa::Clearance::default(), Route::default());
+    let (mut cost, mut clear, mut route) = (
+        Vec::new(),
+        mimnav_planner::clearance::Clearance::default(),
+        Route::default(),
+    );
     let reach = (params.dwa.max_v * params.dwa.horizon_s
         + params.dwa.radius_m
         + params.dwa.margin_m) as f32

@@ -5,13 +5,16 @@
 //!   (eq. 11), with uniform inflation as the paper's ablation;
 //! - [`route`]: a navigation function on the local map, so goal progress is measured around
 //!   obstacles rather than through them (beyond the paper);
-//! - [`dwa`]: the footprint clearance, the dynamic window and the trajectory scores (eq. 12);
-//! - [`Planner`]: the three in order, with their buffers;
+//! - [`clearance`]: the distance to the nearest solid or glass cell (a chamfer transform), which
+//!   the route search and the dynamic window's footprint test both use;
+//! - [`dwa`]: the dynamic window and the trajectory scores (eq. 12);
+//! - [`Planner`]: inflation, clearance, route and dynamic window in order, with their buffers;
 //! - [`pilot`]: the service's step around the planner (input freshness, the goal into the robot
 //!   frame, foliage fusion, the fail-safe), which the service, `mimnav eval` and the lock-step
 //!   runner drive alike.
 #![deny(missing_docs)]
 
+pub mod clearance;
 pub mod dwa;
 pub mod inflate;
 pub mod pilot;
@@ -20,7 +23,8 @@ pub mod route;
 use mimnav_shared::config::{Config, InflationConfig};
 use mimnav_shared::grid::GridSpec;
 
-use dwa::{Clearance, DwaOutcome, DwaParams};
+use clearance::Clearance;
+use dwa::{DwaOutcome, DwaParams};
 use inflate::{Inflation, KernelCache};
 use route::{Route, RouteParams};
 
