@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::{Classifier, FoliageParams, Motion};
+use mimnav_foliage::{Classifier, Motion};
 use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::glass::Pose2;
 use mimnav_mapper::render::{self, Image};
@@ -211,7 +211,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     };
     let mut planner = Planner::new(params);
     let (mut baseline, mut truth) = (Vec::new(), Vec::new());
-    let mut classifier = Classifier::new(FoliageParams::from_config(&config.foliage))
+    let mut classifier = Classifier::new(config.foliage)
         .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     let (mut angles, mut ranges, mut obstacles) = (Vec::new(), Vec::new(), Vec::new());
     // the sensor's pose at the previous scan, for the classifier's carried scans

@@ -35,7 +35,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::{Classifier, FoliageParams, class};
+use mimnav_foliage::{Classifier, class};
 use mimnav_shared::config::Config;
 use mimnav_shared::topics::cell_class;
 use mimnav_sim::geometry::{footprint_distance, intersect};
@@ -253,7 +253,7 @@ pub fn run_episode(
     min_returns: usize,
     min_run: usize,
 ) -> Result<Episode> {
-    let params = FoliageParams::from_config(&config.foliage);
+    let params = config.foliage;
     let mut classifier = Classifier::new(params).map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     let (d_min, d_max) = (params.d_min_m, params.d_max_m);
     let mut scene = scene.clone();
@@ -596,7 +596,7 @@ pub fn run(
             c.robot.name
         );
         speeds.push(v);
-        FoliageParams::from_config(&c.foliage)
+        c.foliage
             .validate()
             .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     }
@@ -672,7 +672,7 @@ pub fn run(
             }
         }
     }
-    let p = FoliageParams::from_config(&config.foliage);
+    let p = config.foliage;
     println!(
         "{} seeds (from seed {}) × {} scans per world, robot and motion; laser {} ({}), d = [{}, {}] m; moving: straight at {}",
         args.seeds,

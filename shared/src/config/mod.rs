@@ -21,16 +21,16 @@
 //! bare word is taken as a string).
 
 mod check;
-mod foliage;
+pub mod foliage;
 mod iceoryx2;
-mod latency;
-mod log;
-mod map;
-mod mapper;
-mod planner;
-mod robot;
-mod sim;
-mod velodyne;
+pub mod latency;
+pub mod log;
+pub mod map;
+pub mod mapper;
+pub mod planner;
+pub mod robot;
+pub mod sim;
+pub mod velodyne;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -39,7 +39,7 @@ use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
 pub use check::{Allowed, Checks, Invalid, ParamError};
-pub use foliage::FoliageConfig;
+pub use foliage::FoliageParams;
 pub use iceoryx2::{DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT};
 use iceoryx2::{iceoryx2_config, project_iceoryx2_defaults};
 pub use latency::LatencyConfig;
@@ -100,7 +100,7 @@ pub struct Config {
     /// The planner.
     pub planner: PlannerConfig,
     /// The foliage classifier.
-    pub foliage: FoliageConfig,
+    pub foliage: FoliageParams,
     /// The services' latency settings.
     pub latency: LatencyConfig,
 }
@@ -117,7 +117,7 @@ struct FileConfig {
     sim: SimConfig,
     mapper: MapperConfig,
     planner: PlannerConfig,
-    foliage: FoliageConfig,
+    foliage: FoliageParams,
     latency: LatencyConfig,
 }
 
@@ -133,7 +133,7 @@ impl Default for Config {
             sim: SimConfig::default(),
             mapper: MapperConfig::default(),
             planner: PlannerConfig::default(),
-            foliage: FoliageConfig::default(),
+            foliage: FoliageParams::default(),
             latency: LatencyConfig::default(),
         }
     }
