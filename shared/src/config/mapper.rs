@@ -145,6 +145,12 @@ impl Default for MapperConfig {
 }
 
 impl MapperConfig {
+    /// The planning cost of a passable cell on `map/plan`'s 0–255 scale: `passable_cost` × 255,
+    /// rounded (the mapper writes it, the planner inflates with it).
+    pub fn passable_cell_cost(&self) -> u8 {
+        (self.passable_cost * 255.0).round() as u8
+    }
+
     /// The layers in force: the configured ones, or the paper's four for `robot`:
     /// below = [−(sensor height − ground clearance), 0) m, above = [0, robot top − sensor + 1) m,
     /// zero = [−1.5°, 1.5°) (the ±1° lasers), minus_eps = [−4°, −2°) (the −3° laser).
