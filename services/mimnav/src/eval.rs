@@ -204,15 +204,15 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     let mut asm = Assembler::new(asm_config);
     let mut mapper = Mapper::new(MapperParams::from_config(config));
     let mut params = PlannerParams::from_config(config);
-    params.inflation = match method {
+    params.planner.inflation = match method {
         Method::Adaptive | Method::Foliage => Inflation::Adaptive,
         // the baselines use the usual costmap: uniform inflation
         Method::Uniform | Method::LaserScan | Method::Occupancy => Inflation::Uniform,
     };
     let mut planner = Planner::new(params);
     let (mut baseline, mut truth) = (Vec::new(), Vec::new());
-    let mut classifier = Classifier::new(config.foliage)
-        .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
+    let mut classifier =
+        Classifier::new(config.foliage).map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     let (mut angles, mut ranges, mut obstacles) = (Vec::new(), Vec::new(), Vec::new());
     // the sensor's pose at the previous scan, for the classifier's carried scans
     let mut last_pose: Option<[f64; 3]> = None;
@@ -600,7 +600,7 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     route.build(
         &mimnav_planner::route::RouteParams {
             cell_m: 0.1,
-            radius_m: (p.dwa.radius_m + p.dwa.margin_m) as f32,
+            radius_m: p.footprint_m() as f32,
             cost_weight: 0.0,
             settle_within_m: 0.0,
         },

@@ -11,64 +11,8 @@
 use mimnav_shared::grid::GridSpec;
 
 use crate::clearance::Clearance;
+use crate::params::PlannerParams;
 use crate::route::Route;
-
-/// Settings of the planner's search.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DwaParams {
-    /// Largest forward speed, m/s.
-    pub max_v: f64,
-    /// Largest turn rate, rad/s.
-    pub max_omega: f64,
-    /// Largest linear acceleration, m/s².
-    pub max_accel: f64,
-    /// Largest angular acceleration, rad/s².
-    pub max_alpha: f64,
-    /// Footprint radius, m.
-    pub radius_m: f64,
-    /// Distance kept from solid and glass cells beyond the footprint, m. At least a cell: the
-    /// clearance is measured between cell centres, so it overstates the distance to a surface by
-    /// up to half a cell's diagonal, and a surface seen obliquely fills its outermost cells last.
-    pub margin_m: f64,
-    /// Time the window's accelerations apply over (the control period), s.
-    pub window_s: f64,
-    /// Rollout step, s.
-    pub dt_s: f64,
-    /// Rollout horizon, s.
-    pub horizon_s: f64,
-    /// Speed samples.
-    pub v_samples: usize,
-    /// Turn-rate samples.
-    pub omega_samples: usize,
-    /// Weight of the remaining distance to the goal, per metre.
-    pub goal_weight: f64,
-    /// Weight of driving slower than the top speed, per m/s.
-    pub speed_weight: f64,
-    /// Weight of the summed obstacle cost (each cell 0–1).
-    pub obstacle_weight: f64,
-}
-
-impl Default for DwaParams {
-    /// The authors' starting point (DESIGN §7) on a Turtlebot 2's limits.
-    fn default() -> Self {
-        DwaParams {
-            max_v: 0.5,
-            max_omega: 1.5,
-            max_accel: 0.6,
-            max_alpha: 3.0,
-            radius_m: 0.2,
-            margin_m: 0.1,
-            window_s: 0.5,
-            dt_s: 0.1,
-            horizon_s: 3.5,
-            v_samples: 11,
-            omega_samples: 21,
-            goal_weight: 5.0,
-            speed_weight: 0.1,
-            obstacle_weight: 1.0,
-        }
-    }
-}
 
 /// What the search decided.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,7 +37,7 @@ pub enum DwaOutcome {
 /// one from the robot's place, and the straight-line distance otherwise (the paper's eq. 12).
 #[allow(clippy::too_many_arguments)]
 pub fn plan(
-    p: &DwaParams,
+    p: &PlannerParams,
     grid: GridSpec,
     cost: &[u8],
     clear: &Clearance,
@@ -102,16 +46,20 @@ pub fn plan(
     goal: (f64, f64),
     route: Option<&Route>,
 ) -> DwaOutcome {
+    let (robot, pl) = (&p.robot, &p.planner);
     let route = route.filter(|r| r.value(0.0, 0.0).is_finite());
     let to_go = |x: f64, y: f64| match route {
         Some(r) => f64::from(r.value(x as f32, y as f32)),
         None => (goal.0 - x).hypot(goal.1 - y),
     };
-    let v_lo = (v0 - p.max_accel * p.window_s).max(0.0);
-    let v_hi = (v0 + p.max_accel * p.window_s).min(p.max_v);
-    let w_lo = (omega0 - p.max_alpha * p.window_s).max(-p.max_omega);
-    let w_hi = (omega0 + p.max_alpha * p.window_s).min(p.max_omega);
-    let steps = (p.horizon_s / p.dt_s).ceil().max(1.0) as usize;
+    let (max_v, max_omega) = (robot.max_linear_mps, robot.max_angular_rps);
+    let (max_accel, max_alpha) = (robot.max_linear_accel, robot.max_angular_accel);
+    let v_lo = (v0 - max_accel * pl.window_s).max(0.0);
+    let v_hi = (v0 + max_accel * pl.window_s).min(max_v);
+    let w_lo = (omega0 - max_alpha * pl.window_s).max(-max_omega);
+    let w_hi = (omega0 + max_alpha * pl.window_s).min(max_omega);
+    let dt_s = pl.dt_s;
+    let steps = (pl.horizon_s / dt_s).ceil().max(1.0) as usize;
     let start_to_go = to_go(0.0, 0.0);
     // Closer than the footprint and margin already (a late detection, or a cell misjudged
     // solid): motions that get no closer still are allowed, so the robot can back out instead
@@ -125,7 +73,7 @@ pub fn plan(
     if start_clear <= 0.0 {
         return DwaOutcome::Blocked;
     }
-    let required = (p.radius_m + p.margin_m).min(start_clear);
+    let required = p.footprint_m().min(start_clear);
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
         if n <= 1 {
@@ -134,13 +82,13 @@ pub fn plan(
             lo + (hi - lo) * k as f64 / (n - 1) as f64
         }
     };
-    for kv in 0..p.v_samples.max(1) {
-        let v = sample(v_lo, v_hi, kv, p.v_samples);
-        for kw in 0..p.omega_samples.max(1) {
-            let w = sample(w_lo, w_hi, kw, p.omega_samples);
+    for kv in 0..pl.v_samples.max(1) {
+        let v = sample(v_lo, v_hi, kv, pl.v_samples);
+        for kw in 0..pl.omega_samples.max(1) {
+            let w = sample(w_lo, w_hi, kw, pl.omega_samples);
             // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling
             // sin and cos each step
-            let (turn_s, turn_c) = (w * p.dt_s).sin_cos();
+            let (turn_s, turn_c) = (w * dt_s).sin_cos();
             let (mut x, mut y) = (0.0f64, 0.0f64);
             let (mut hc, mut hs) = (1.0f64, 0.0f64);
             let mut obstacle = 0.0;
@@ -148,8 +96,8 @@ pub fn plan(
             let mut closest = start_to_go;
             for k in 0..steps {
                 (hc, hs) = (hc * turn_c - hs * turn_s, hs * turn_c + hc * turn_s);
-                x += v * hc * p.dt_s;
-                y += v * hs * p.dt_s;
+                x += v * hc * dt_s;
+                y += v * hs * dt_s;
                 let Some((r, c)) = grid.cell_of(x as f32, y as f32) else {
                     closest = closest.min(to_go(x, y));
                     break;
@@ -174,9 +122,9 @@ pub fn plan(
             if !feasible {
                 continue;
             }
-            let score = p.goal_weight * closest
-                + p.speed_weight * (p.max_v - v)
-                + p.obstacle_weight * obstacle * p.dt_s;
+            let score = pl.goal_weight * closest
+                + pl.speed_weight * (max_v - v)
+                + pl.obstacle_weight * obstacle * dt_s;
             if best.is_none_or(|b| score < b.2) {
                 best = Some((v, w, score));
             }
@@ -201,12 +149,12 @@ mod tests {
             .iter()
             .map(|&c| if c == cell_class::SOLID { 255 } else { 0 })
             .collect();
-        let p = DwaParams::default();
+        let p = PlannerParams::default();
         let mut route = Route::default();
         route.build(
             &crate::route::RouteParams {
                 cell_m: 0.2,
-                radius_m: (p.radius_m + p.margin_m) as f32,
+                radius_m: p.footprint_m() as f32,
                 cost_weight: 1.0,
                 settle_within_m: 0.0,
             },
@@ -302,11 +250,9 @@ mod tests {
         let mut clear = Clearance::default();
         clear.compute(&classes, grid, 3.0, 5.0);
         let cost = vec![0u8; grid.len()];
-        let straight = DwaParams {
-            omega_samples: 1,
-            max_omega: 0.0,
-            ..DwaParams::default()
-        };
+        let mut straight = PlannerParams::default();
+        straight.planner.omega_samples = 1;
+        straight.robot.max_angular_rps = 0.0;
         match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
             DwaOutcome::Blocked => {}

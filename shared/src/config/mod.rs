@@ -46,7 +46,7 @@ pub use latency::LatencyConfig;
 pub use log::LogConfig;
 pub use map::MapConfig;
 pub use mapper::{LayerConfig, LayerUnit, MapperConfig};
-pub use planner::{InflationConfig, PlannerConfig};
+pub use planner::{Inflation, PlannerConfig};
 pub use robot::RobotProfile;
 pub use sim::{SimConfig, SimReturnMode};
 pub use velodyne::{ScanReturnConfig, VelodyneConfig, VelodyneInput};

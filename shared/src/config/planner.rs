@@ -7,12 +7,12 @@ use super::check::{Checks, Invalid};
 /// How the planner inflates obstacles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum InflationConfig {
+pub enum Inflation {
     /// The paper's adaptive kernel along the goal direction.
     Adaptive,
-    /// An all-ones kernel (the ablation).
+    /// An all-ones e × e kernel (the ablation).
     Uniform,
-    /// None.
+    /// No inflation.
     None,
 }
 
@@ -21,14 +21,14 @@ pub enum InflationConfig {
 #[serde(default, deny_unknown_fields)]
 pub struct PlannerConfig {
     /// `adaptive`, `uniform` or `none`.
-    pub inflation: InflationConfig,
+    pub inflation: Inflation,
     /// Side e of the inflation kernel, cells (odd).
     pub kernel_cells: usize,
     /// Thickness of the adaptive kernel's line either side, cells.
     pub padding_cells: usize,
     /// Goal directions the adaptive kernels are cached for, a half turn.
     pub kernel_angles: usize,
-    /// Time the window's accelerations apply over, s.
+    /// Time the window's accelerations apply over (the control period), s.
     pub window_s: f64,
     /// Rollout step, s.
     pub dt_s: f64,
@@ -38,13 +38,16 @@ pub struct PlannerConfig {
     pub v_samples: usize,
     /// Turn-rate samples.
     pub omega_samples: usize,
-    /// Weight of the remaining distance to the goal.
+    /// Weight of the remaining distance to the goal, per metre.
     pub goal_weight: f64,
-    /// Weight of driving slower than the top speed.
+    /// Weight of driving slower than the top speed, per m/s.
     pub speed_weight: f64,
-    /// Weight of the obstacle cost along a trajectory.
+    /// Weight of the obstacle cost summed along a trajectory (each cell 0–1).
     pub obstacle_weight: f64,
-    /// Distance kept from solid and glass cells beyond the robot's radius, m.
+    /// Distance kept from solid and glass cells beyond the robot's radius, m. At least a cell:
+    /// the clearance is measured between cell centres, so it overstates the distance to a
+    /// surface by up to half a cell's diagonal, and a surface seen obliquely fills its outermost
+    /// cells last.
     pub margin_m: f64,
     /// Coarse cell of the route search around obstacles, m (0: straight-line goal progress, as
     /// in the paper).
@@ -66,7 +69,7 @@ pub struct PlannerConfig {
 impl Default for PlannerConfig {
     fn default() -> Self {
         PlannerConfig {
-            inflation: InflationConfig::Adaptive,
+            inflation: Inflation::Adaptive,
             kernel_cells: 13,
             padding_cells: 1,
             kernel_angles: 36,
