@@ -86,7 +86,7 @@ pub fn score_world(
     let mut visible = MapScore::default();
     let (mut revolutions, mut seen) = (0u64, 0u64);
     let mut mapper_ns = 0u128;
-    let limits = sim.settings().limits;
+    let limits = sim.settings().robot.clone();
     while sim.outcome() == Outcome::Running && !driver.done() {
         let step = sim.step();
         let Some(rev) = asm

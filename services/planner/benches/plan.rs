@@ -37,7 +37,7 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
     let mut sim = Sim::new(scene, SimSettings::from_config(config), 1, DEFAULT_EPOCH_NS);
     let mut asm = Assembler::new(AssemblerConfig::from_config(config));
     let mut mapper = Mapper::new(MapperParams::from_config(config));
-    let limits = sim.settings().limits;
+    let limits = sim.settings().robot.clone();
     let mut out = Vec::new();
     let mut k = 0;
     while sim.outcome() == Outcome::Running && !driver.done() {

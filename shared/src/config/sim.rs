@@ -19,6 +19,18 @@ pub enum SimReturnMode {
     Dual,
 }
 
+impl SimReturnMode {
+    /// The return-mode byte the sensor writes in its data packets ([`crate::topics::return_mode`]).
+    pub fn byte(self) -> u8 {
+        use crate::topics::return_mode;
+        match self {
+            SimReturnMode::Strongest => return_mode::STRONGEST,
+            SimReturnMode::Last => return_mode::LAST,
+            SimReturnMode::Dual => return_mode::DUAL,
+        }
+    }
+}
+
 /// The simulator (`[sim]`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
