@@ -199,7 +199,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     if method == Method::LaserScan {
         // the paper's baseline is a single-return planar scanner: the strongest echo, which in
         // grass is a blade (the last return would see through the grass)
-        asm_config.decoder.scan_return = mimnav_velodyne::decode::ScanReturnSelect::Strongest;
+        asm_config.velodyne.scan_return = mimnav_velodyne::decode::ScanReturnSelect::Strongest;
     }
     let mut asm = Assembler::new(asm_config);
     let mut mapper = Mapper::new(MapperParams::from_config(config));

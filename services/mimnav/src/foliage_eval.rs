@@ -680,8 +680,8 @@ pub fn run(
         args.scans,
         config.velodyne.scan_laser,
         match config.velodyne.scan_return {
-            mimnav_shared::config::ScanReturnConfig::Strongest => "strongest return",
-            mimnav_shared::config::ScanReturnConfig::Last => "last return",
+            mimnav_shared::config::ScanReturnSelect::Strongest => "strongest return",
+            mimnav_shared::config::ScanReturnSelect::Last => "last return",
         },
         p.d_min_m,
         p.d_max_m,

@@ -49,7 +49,7 @@ pub use mapper::{LayerConfig, LayerUnit, MapperConfig};
 pub use planner::{Inflation, PlannerConfig};
 pub use robot::RobotProfile;
 pub use sim::{SimConfig, SimReturnMode};
-pub use velodyne::{ScanReturnConfig, VelodyneConfig, VelodyneInput};
+pub use velodyne::{ScanReturnSelect, VelodyneConfig, VelodyneInput};
 
 /// Default location of the stack's config file when a service is started without `--config`.
 pub const DEFAULT_CONFIG_PATH: &str = "/etc/mimnav/mimnav.toml";

@@ -20,11 +20,22 @@ pub enum VelodyneInput {
 /// Which return of a dual pair the planar scan takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum ScanReturnConfig {
-    /// The strongest return.
+pub enum ScanReturnSelect {
+    /// The strongest return (odd blocks in dual mode).
     Strongest,
-    /// The last return.
+    /// The last return (even blocks in dual mode).
     Last,
+}
+
+impl ScanReturnSelect {
+    /// The return type ([`crate::topics::return_type`]) a scan header names this choice by.
+    pub fn return_type(self) -> u8 {
+        use crate::topics::return_type;
+        match self {
+            ScanReturnSelect::Strongest => return_type::STRONGEST,
+            ScanReturnSelect::Last => return_type::LAST,
+        }
+    }
 }
 
 /// The VLP-16 driver (`[velodyne]`).
@@ -71,7 +82,7 @@ pub struct VelodyneConfig {
     pub scan_laser: u8,
     /// Return of a dual pair the planar scan takes: `last` (default: the foliage classifier sees
     /// an obstacle behind grass through the beams that reach it) or `strongest`.
-    pub scan_return: ScanReturnConfig,
+    pub scan_return: ScanReturnSelect,
     /// Publish every raw datagram on `lidar/packets`.
     pub publish_packets: bool,
     /// Interval of the statistics log line, seconds.
@@ -99,7 +110,7 @@ impl Default for VelodyneConfig {
             max_range_m: 200.0,
             accept_product_0x21: false,
             scan_laser: 14,
-            scan_return: ScanReturnConfig::Last,
+            scan_return: ScanReturnSelect::Last,
             publish_packets: false,
             stats_interval_s: 10.0,
         }
