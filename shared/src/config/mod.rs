@@ -19,6 +19,16 @@
 //! and out-of-range values are errors that name the file, the key and what is allowed.
 //! `--set key.path=value` on a service's command line overrides one key (the value is TOML; a
 //! bare word is taken as a string).
+//!
+//! Each section is a module here ([`velodyne`], [`map`], [`mapper`], [`planner`], [`foliage`],
+//! [`sim`], [`robot`], [`log`], [`latency`]) holding its type, its defaults and its `validate()`,
+//! which returns an [`Invalid`]: every value refused as a [`ParamError`] naming the key and what
+//! is allowed. These types are the algorithm libraries' parameters, defined once: the libraries
+//! take them as they are (the foliage classifier's `FoliageParams` is [`foliage::FoliageParams`];
+//! the mapper, planner, simulator and driver hold their sections beside the grid and the robot
+//! profile) rather than copying them into types of their own. They live in `shared`, below every
+//! service, because [`Config`] composes them: one file is checked whole, rules tie sections
+//! together ([`Config::validate`]), and each service reads the sections it needs.
 
 mod check;
 pub mod foliage;
