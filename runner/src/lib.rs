@@ -28,7 +28,7 @@ use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::step::{MapStep, Mapped};
 use mimnav_planner::PlannerParams;
 use mimnav_planner::inflate::Inflation;
-use mimnav_planner::pilot::{Decision, Pilot, PilotParams, Refused};
+use mimnav_planner::pilot::{Decision, Pilot, Refused};
 use mimnav_shared::config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
@@ -177,17 +177,14 @@ impl Lockstep {
         if options.map == MapSource::LaserScan {
             // the paper's baseline is a single-return planar scanner: the strongest echo, which
             // in grass is a blade (the last return would see through the grass)
-            asm.decoder.scan_return = ScanReturnSelect::Strongest;
+            asm.velodyne.scan_return = ScanReturnSelect::Strongest;
         }
         let v = &config.velodyne;
         let mut planner = PlannerParams::from_config(config);
         if let Some(inflation) = options.inflation {
-            planner.inflation = inflation;
+            planner.planner.inflation = inflation;
         }
-        let pilot = PilotParams {
-            use_foliage: options.foliage == FoliageUse::InLoop,
-            ..PilotParams::from_config(config)
-        };
+        planner.planner.use_foliage = options.foliage == FoliageUse::InLoop;
         let scan = match options.foliage {
             FoliageUse::Off => None,
             FoliageUse::Classify | FoliageUse::InLoop => Some(ScanStep::from_config(config)?),
@@ -205,7 +202,7 @@ impl Lockstep {
             faults: Faults::new(Duration::from_secs(10)),
             map: MapStep::from_config(config),
             scan,
-            pilot: Pilot::new(planner, pilot),
+            pilot: Pilot::new(planner),
             grid: config.map.grid(),
             band: (
                 r.sensor_height_m as f32,

@@ -17,6 +17,7 @@
 
 pub use nalgebra::{Isometry2, Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2};
 
+use crate::config::{Checks, Invalid};
 use crate::topics::Odometry;
 
 /// A pose in the plane: position (m) and heading (rad, counter-clockwise from x). As a transform
@@ -123,43 +124,17 @@ pub struct LidarMount {
     pub yaw_deg: f64,
 }
 
-/// A mount that cannot be right.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("robot.mount.{key} = {value} is out of range: allowed {low} to {high}")]
-pub struct MountError {
-    /// The key.
-    pub key: &'static str,
-    /// Its value.
-    pub value: f64,
-    /// Lowest allowed.
-    pub low: f64,
-    /// Highest allowed.
-    pub high: f64,
-}
-
 impl LidarMount {
     /// Checks every value is finite and within a range a robot can have: the sensor within 3 m
-    /// of the axis, tilted at most 45°.
-    pub fn validate(&self) -> Result<(), MountError> {
-        let checks = [
-            ("x_m", self.x_m, -3.0, 3.0),
-            ("y_m", self.y_m, -3.0, 3.0),
-            ("roll_deg", self.roll_deg, -45.0, 45.0),
-            ("pitch_deg", self.pitch_deg, -45.0, 45.0),
-            ("yaw_deg", self.yaw_deg, -180.0, 180.0),
-        ];
-        for (key, value, low, high) in checks {
-            // NaN fails both comparisons
-            if !(value >= low && value <= high) {
-                return Err(MountError {
-                    key,
-                    value,
-                    low,
-                    high,
-                });
-            }
-        }
-        Ok(())
+    /// of the axis, tilted at most 45°; each value refused names its key (`robot.mount.…`).
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
+        r.check("robot.mount.x_m", self.x_m, -3.0, 3.0);
+        r.check("robot.mount.y_m", self.y_m, -3.0, 3.0);
+        r.check("robot.mount.roll_deg", self.roll_deg, -45.0, 45.0);
+        r.check("robot.mount.pitch_deg", self.pitch_deg, -45.0, 45.0);
+        r.check("robot.mount.yaw_deg", self.yaw_deg, -180.0, 180.0);
+        r.finish()
     }
 
     /// The sensor's frame in the centred sensor's: rotation and the offset on the ground plane.
@@ -270,7 +245,8 @@ mod tests {
             pitch_deg: f64::NAN,
             ..LidarMount::default()
         };
-        assert_eq!(nan.validate().map_err(|e| e.key), Err("pitch_deg"));
+        let e = nan.validate().expect_err("NaN");
+        assert!(e.get("robot.mount.pitch_deg").is_some(), "{e}");
         let far = LidarMount {
             y_m: 7.0,
             ..LidarMount::default()

@@ -23,10 +23,49 @@
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The kernel's PM QoS device for the CPU wake-up latency.
 pub const DEVICE: &str = "/dev/cpu_dma_latency";
+
+/// Why a latency setting is not in force: what failed, on which device or at which priority.
+#[derive(Debug, thiserror::Error)]
+pub enum LatencyError {
+    /// The PM QoS device cannot be opened for writing.
+    #[error("cannot open {}: {source}", device.display())]
+    Open {
+        /// The device.
+        device: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The request cannot be written to the device.
+    #[error("cannot write {us} µs to {}: {source}", device.display())]
+    Write {
+        /// The device.
+        device: PathBuf,
+        /// The latency asked for, µs.
+        us: i32,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The device cannot be read.
+    #[error("cannot read {}: {source}", device.display())]
+    Read {
+        /// The device.
+        device: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The kernel refused the real-time policy (no CAP_SYS_NICE, RLIMIT_RTPRIO too low).
+    #[error("cannot switch to SCHED_FIFO at priority {priority}: {source}")]
+    Fifo {
+        /// The priority asked for.
+        priority: i32,
+        /// Why.
+        source: std::io::Error,
+    },
+}
 
 /// A CPU wake-up latency request, in force while this value lives.
 #[derive(Debug)]
@@ -44,27 +83,37 @@ impl CpuLatencyRequest {
 
 /// Requests a CPU wake-up latency of at most `us` µs through `device` (normally [`DEVICE`]);
 /// `us < 0` requests nothing. The error names the device and what failed.
-pub fn request_at(device: &Path, us: i32) -> Result<Option<CpuLatencyRequest>, String> {
+pub fn request_at(device: &Path, us: i32) -> Result<Option<CpuLatencyRequest>, LatencyError> {
     if us < 0 {
         return Ok(None);
     }
     let mut file = OpenOptions::new()
         .write(true)
         .open(device)
-        .map_err(|e| format!("cannot open {}: {e}", device.display()))?;
+        .map_err(|source| LatencyError::Open {
+            device: device.into(),
+            source,
+        })?;
     // the device takes a native-endian s32 (or an ASCII hex string)
     file.write_all(&us.to_ne_bytes())
-        .map_err(|e| format!("cannot write {us} µs to {}: {e}", device.display()))?;
+        .map_err(|source| LatencyError::Write {
+            device: device.into(),
+            us,
+            source,
+        })?;
     Ok(Some(CpuLatencyRequest { _file: file, us }))
 }
 
 /// The CPU wake-up latency the kernel applies now, µs (the smallest request held), read from
 /// `device`.
-pub fn current_at(device: &Path) -> Result<i32, String> {
+pub fn current_at(device: &Path) -> Result<i32, LatencyError> {
     let mut buf = [0u8; 4];
     File::open(device)
         .and_then(|mut f| f.read_exact(&mut buf))
-        .map_err(|e| format!("cannot read {}: {e}", device.display()))?;
+        .map_err(|source| LatencyError::Read {
+            device: device.into(),
+            source,
+        })?;
     Ok(i32::from_ne_bytes(buf))
 }
 
@@ -72,7 +121,7 @@ pub fn current_at(device: &Path) -> Result<i32, String> {
 /// `priority` ≤ 0 leaves the scheduling alone. Returns whether the thread now runs under a
 /// real-time policy: one already real-time (set by systemd's `CPUSchedulingPolicy=`) is left as
 /// it is.
-pub fn set_fifo(priority: i32) -> Result<bool, String> {
+pub fn set_fifo(priority: i32) -> Result<bool, LatencyError> {
     if priority <= 0 {
         return Ok(false);
     }
@@ -90,10 +139,10 @@ pub fn set_fifo(priority: i32) -> Result<bool, String> {
         libc::sched_setscheduler(0, libc::SCHED_FIFO | libc::SCHED_RESET_ON_FORK, &param)
     };
     if rc != 0 {
-        return Err(format!(
-            "cannot switch to SCHED_FIFO at priority {priority}: {}",
-            std::io::Error::last_os_error()
-        ));
+        return Err(LatencyError::Fifo {
+            priority,
+            source: std::io::Error::last_os_error(),
+        });
     }
     Ok(true)
 }
@@ -169,7 +218,7 @@ mod tests {
         let r = request_at(&device, 25).expect("opens").expect("a request");
         assert_eq!(r.us(), 25);
         assert_eq!(std::fs::read(&device).expect("read"), 25i32.to_ne_bytes());
-        assert_eq!(current_at(&device), Ok(25));
+        assert_eq!(current_at(&device).expect("readable"), 25);
         std::fs::remove_dir_all(&dir).ok();
     }
 
@@ -178,6 +227,8 @@ mod tests {
         let dir = scratch("missing");
         let device = dir.join("no-such-device");
         let e = request_at(&device, 0).expect_err("no device");
+        assert!(matches!(e, LatencyError::Open { .. }), "{e}");
+        let e = e.to_string();
         assert!(e.starts_with("cannot open "), "{e}");
         assert!(e.contains("no-such-device"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
@@ -187,7 +238,7 @@ mod tests {
     fn priority_zero_leaves_the_scheduling_alone() {
         // SAFETY: no preconditions
         let before = unsafe { libc::sched_getscheduler(0) };
-        assert_eq!(set_fifo(0), Ok(false));
+        assert!(matches!(set_fifo(0), Ok(false)));
         assert_eq!(unsafe { libc::sched_getscheduler(0) }, before);
     }
 
@@ -205,12 +256,12 @@ mod tests {
                 assert_eq!(unsafe { libc::sched_getparam(0, &mut p) }, 0);
                 assert_eq!(p.sched_priority, 3);
                 // a second call leaves a real-time thread as it is
-                assert_eq!(set_fifo(5), Ok(true));
+                assert!(matches!(set_fifo(5), Ok(true)));
                 assert_eq!(unsafe { libc::sched_getparam(0, &mut p) }, 0);
                 assert_eq!(p.sched_priority, 3);
             }
             Err(e) => {
-                assert!(e.contains("SCHED_FIFO at priority 3"), "{e}");
+                assert!(e.to_string().contains("SCHED_FIFO at priority 3"), "{e}");
                 println!("SKIP fifo_is_in_force_where_allowed: {e}");
             }
         })

@@ -8,7 +8,7 @@
 //! `foliage.carry_scans = 0`) the scan is classified as the paper does, with no earlier scan
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
-use mimnav_shared::config::Config;
+use mimnav_shared::config::{Config, Invalid};
 use mimnav_shared::pose::{
     LidarMount, MountTransform, NonFiniteOdometry, Pose2, check_odometry, pose2,
 };
@@ -23,7 +23,7 @@ use crate::{Classifier, FoliageParams, Motion};
 pub enum StepError {
     /// The `[foliage]` parameters do not validate.
     #[error("[foliage]: {0}")]
-    Params(String),
+    Params(Invalid),
     /// More sectors than `foliage/alarm` carries.
     #[error(
         "[foliage]: sector_deg gives {0} sectors, more than the {MAX_FOLIAGE_SECTORS} foliage/alarm carries"
@@ -94,10 +94,7 @@ impl ScanStep {
 
     /// The step of the config's `[foliage]` (and `robot.mount`).
     pub fn from_config(config: &Config) -> Result<Self, StepError> {
-        let step = ScanStep::new(
-            FoliageParams::from_config(&config.foliage),
-            (config.foliage.odom_max_age_s * 1e9) as u64,
-        )?;
+        let step = ScanStep::new(config.foliage, (config.foliage.odom_max_age_s * 1e9) as u64)?;
         Ok(step.with_mount(&config.robot.mount))
     }
 

@@ -221,7 +221,8 @@ fn default_params_are_valid_and_sized_for_vlp16() {
 }
 
 #[test]
-fn validate_names_the_field_and_range() {
+fn validate_names_the_key_and_range() {
+    use mimnav_shared::config::{Allowed, ParamError};
     let bad = [
         FoliageParams {
             k1: -1.0,
@@ -248,32 +249,39 @@ fn validate_names_the_field_and_range() {
             ..Default::default()
         },
     ];
-    let names = [
-        "k1",
-        "k3",
-        "d_max_m",
-        "window_rad",
-        "thin_min",
-        "thin_window",
+    let keys = [
+        "foliage.k1",
+        "foliage.k3",
+        "foliage.d_max_m",
+        "foliage.window_deg",
+        "foliage.thin_min",
+        "foliage.thin_window",
     ];
-    for (p, name) in bad.iter().zip(names) {
-        let err = p.validate().err().unwrap_or_default();
-        assert!(err.contains(name), "{err:?} should name {name}");
+    for (p, key) in bad.iter().zip(keys) {
+        let err = p.validate().expect_err(key);
         assert!(
-            err.contains("allowed range"),
-            "{err:?} should give the range"
+            matches!(err.get(key), Some(ParamError::OutOfRange { .. })),
+            "{err:?} should name {key} and its range"
         );
+        assert!(err.to_string().contains("allowed"), "{err}");
         assert!(Classifier::new(*p).is_err());
     }
+    assert_eq!(
+        bad[1].validate().expect_err("k3").0[0],
+        ParamError::OutOfRange {
+            key: "foliage.k3".into(),
+            value: 0.0,
+            allowed: Allowed::above(0.0, 1000.0),
+        }
+    );
     let err = FoliageParams {
         d_min_m: 2.0,
         d_max_m: 1.0,
         ..Default::default()
     }
     .validate()
-    .err()
-    .unwrap_or_default();
-    assert!(err.contains("d_max_m"), "{err}");
+    .expect_err("d_min above d_max");
+    assert!(err.to_string().contains("foliage.d_max_m"), "{err}");
 }
 
 #[test]
@@ -1566,27 +1574,85 @@ fn get_candidates_matches_the_papers_loop_on_random_small_scans() {
     assert!(found > 2000, "{found}");
 }
 
+/// The values the config file and the classifier used to disagree on (each had its own checks)
+/// are refused by both now, naming the same key: the file through the loader, the classifier
+/// through [`Classifier::new`].
 #[test]
-fn the_config_defaults_are_the_library_defaults() {
-    let from = FoliageParams::from_config(&mimnav_shared::config::FoliageConfig::default());
+fn the_file_and_the_classifier_refuse_the_same_values() {
+    use mimnav_shared::config::Config;
     let d = FoliageParams::default();
-    assert_eq!(from.k1, d.k1);
-    assert_eq!(from.delta, d.delta);
-    assert_eq!(from.k2, d.k2);
-    assert_eq!(from.k3, d.k3);
-    assert_eq!(from.range_error_a, d.range_error_a);
-    assert_eq!(from.range_error_b_m, d.range_error_b_m);
-    assert_eq!((from.d_min_m, from.d_max_m), (d.d_min_m, d.d_max_m));
-    assert!((from.window_rad - d.window_rad).abs() < 1e-6);
-    assert!((from.sector_rad - d.sector_rad).abs() < 1e-6);
-    assert_eq!(
-        (from.thin_window, from.thin_min),
-        (d.thin_window, d.thin_min)
-    );
-    assert_eq!(
-        (from.hold_obstacles, from.fill_notches),
-        (d.hold_obstacles, d.fill_notches)
-    );
+    let cases = [
+        ("k3 = 0", "foliage.k3", FoliageParams { k3: 0.0, ..d }),
+        ("k3 = 5000", "foliage.k3", FoliageParams { k3: 5000.0, ..d }),
+        (
+            "range_error_b_m = 2",
+            "foliage.range_error_b_m",
+            FoliageParams {
+                range_error_b_m: 2.0,
+                ..d
+            },
+        ),
+        (
+            "d_max_m = 500",
+            "foliage.d_max_m",
+            FoliageParams {
+                d_max_m: 500.0,
+                ..d
+            },
+        ),
+        (
+            "window_deg = 0.01",
+            "foliage.window_deg",
+            FoliageParams {
+                window_rad: 0.01f32.to_radians(),
+                ..d
+            },
+        ),
+        (
+            "sector_deg = 1",
+            "foliage.sector_deg",
+            FoliageParams {
+                sector_rad: 1f32.to_radians(),
+                ..d
+            },
+        ),
+        (
+            "thin_min = 0",
+            "foliage.thin_min",
+            FoliageParams { thin_min: 0, ..d },
+        ),
+        (
+            "thin_window = 8\nthin_min = 9",
+            "foliage.thin_min",
+            FoliageParams {
+                thin_window: 8,
+                thin_min: 9,
+                ..d
+            },
+        ),
+        (
+            "carry_min_travel_m = 5",
+            "foliage.carry_min_travel_m",
+            FoliageParams {
+                carry_min_travel_m: 5.0,
+                ..d
+            },
+        ),
+    ];
+    for (line, key, params) in cases {
+        let text = format!("[foliage]\n{line}\n");
+        let e = Config::from_toml(&text, std::path::Path::new("t.toml"), &[])
+            .expect_err(line)
+            .to_string();
+        assert!(e.starts_with("t.toml: ") && e.contains(key), "{line}: {e}");
+        let e = Classifier::new(params).expect_err(line);
+        assert!(e.get(key).is_some(), "{line}: {e}");
+    }
+    // the bounds themselves are allowed by both
+    let edge =
+        "[foliage]\nk3 = 1000\nd_max_m = 200\nwindow_deg = 0.05\nsector_deg = 5\nthin_min = 9\n";
+    let c = Config::from_toml(edge, std::path::Path::new("t.toml"), &[]).expect("bounds");
+    assert!(Classifier::new(c.foliage).is_ok());
 }
 
 /// The wall of [`wall_scan`] with a blade 1 m away in every fourth window: each blade window

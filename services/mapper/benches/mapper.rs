@@ -17,15 +17,11 @@ use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 fn time(name: &str, revs: &[Vec<Point>]) {
     time_with(name, MapperParams::default(), revs);
-    let off = MapperParams {
-        surface_min_returns: 0,
-        ..MapperParams::default()
-    };
+    let mut off = MapperParams::default();
+    off.mapper.surface_min_returns = 0;
     time_with(&format!("{name}, surface cue off"), off, revs);
-    let off = MapperParams {
-        tall_memory_ns: 0,
-        ..MapperParams::default()
-    };
+    let mut off = MapperParams::default();
+    off.mapper.tall_memory_s = 0.0;
     time_with(&format!("{name}, tall cells not kept"), off, revs);
 }
 

@@ -16,6 +16,7 @@
 
 use std::collections::HashMap;
 
+use mimnav_shared::config::MapperConfig;
 use mimnav_shared::grid::GridSpec;
 pub use mimnav_shared::pose::Pose2;
 use mimnav_shared::pose::Pose2Ext;
@@ -31,34 +32,28 @@ pub struct RingReturn {
     pub range_m: f32,
 }
 
-/// Parameters of the spike detector.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SpikeParams {
-    /// Minimum intensity of the spike's returns.
-    pub threshold: f32,
-    /// Minimum rise into and fall out of the spike.
-    pub gradient: f32,
-    /// Maximum width of the spike, degrees.
-    pub width_deg: f32,
-    /// Ranges at both edges agree within this, m.
-    pub range_tolerance_m: f32,
-}
-
-/// Marks in `out` (same length as `ring`) the returns that form intensity spikes.
-pub fn detect_spikes(ring: &[RingReturn], p: &SpikeParams, out: &mut Vec<bool>) {
+/// Marks in `out` (same length as `ring`) the returns that form intensity spikes, by the glass
+/// keys of `[mapper]`: returns at least `glass_intensity` bright, rising into and falling out of
+/// the spike by at least `glass_gradient`, at most `glass_width_deg` wide, with the ranges at its
+/// two edges within `glass_range_tolerance_m`.
+pub fn detect_spikes(ring: &[RingReturn], p: &MapperConfig, out: &mut Vec<bool>) {
+    let threshold = p.glass_intensity as f32;
+    let gradient = p.glass_gradient as f32;
+    let (width_deg, range_tolerance_m) =
+        (p.glass_width_deg as f32, p.glass_range_tolerance_m as f32);
     out.clear();
     out.resize(ring.len(), false);
     let n = ring.len();
     let mut k = 1;
     while k + 1 < n {
         let rise = ring[k].intensity - ring[k - 1].intensity;
-        if ring[k].intensity < p.threshold || rise < p.gradient {
+        if ring[k].intensity < threshold || rise < gradient {
             k += 1;
             continue;
         }
         // walk the run of high returns
         let mut end = k;
-        while end + 1 < n && ring[end + 1].intensity >= p.threshold {
+        while end + 1 < n && ring[end + 1].intensity >= threshold {
             end += 1;
         }
         if end + 1 >= n {
@@ -69,9 +64,8 @@ pub fn detect_spikes(ring: &[RingReturn], p: &SpikeParams, out: &mut Vec<bool>) 
         if width > 180.0 {
             width = 360.0 - width;
         }
-        let edges_agree =
-            (ring[k - 1].range_m - ring[end + 1].range_m).abs() <= p.range_tolerance_m;
-        if fall >= p.gradient && width <= p.width_deg && edges_agree {
+        let edges_agree = (ring[k - 1].range_m - ring[end + 1].range_m).abs() <= range_tolerance_m;
+        if fall >= gradient && width <= width_deg && edges_agree {
             for o in &mut out[k..=end] {
                 *o = true;
             }
@@ -368,12 +362,16 @@ mod tests {
             .collect()
     }
 
-    const P: SpikeParams = SpikeParams {
-        threshold: 100.0,
-        gradient: 30.0,
-        width_deg: 2.0,
-        range_tolerance_m: 0.3,
-    };
+    /// The default glass keys, with spikes at most 2° wide.
+    fn p() -> MapperConfig {
+        MapperConfig {
+            glass_intensity: 100.0,
+            glass_gradient: 30.0,
+            glass_width_deg: 2.0,
+            glass_range_tolerance_m: 0.3,
+            ..MapperConfig::default()
+        }
+    }
 
     #[test]
     fn a_spike_on_one_surface_is_glass() {
@@ -382,7 +380,7 @@ mod tests {
             &[8.0, 8.0, 4.0, 4.0, 4.0, 8.1, 8.0],
         );
         let mut out = Vec::new();
-        detect_spikes(&r, &P, &mut out);
+        detect_spikes(&r, &p(), &mut out);
         assert_eq!(out, [false, false, true, true, true, false, false]);
     }
 
@@ -393,13 +391,21 @@ mod tests {
         let wide: Vec<f32> = (0..20)
             .map(|i| if (2..18).contains(&i) { 200.0 } else { 20.0 })
             .collect();
-        detect_spikes(&ring(&wide, &[5.0; 20]), &P, &mut out);
+        detect_spikes(&ring(&wide, &[5.0; 20]), &p(), &mut out);
         assert!(out.iter().all(|&g| !g));
         // no rise: below the gradient
-        detect_spikes(&ring(&[90.0, 105.0, 110.0, 95.0], &[5.0; 4]), &P, &mut out);
+        detect_spikes(
+            &ring(&[90.0, 105.0, 110.0, 95.0], &[5.0; 4]),
+            &p(),
+            &mut out,
+        );
         assert!(out.iter().all(|&g| !g));
         // edges at different ranges: the spike sits on an object's edge
-        detect_spikes(&ring(&[20.0, 200.0, 20.0], &[3.0, 4.0, 9.0]), &P, &mut out);
+        detect_spikes(
+            &ring(&[20.0, 200.0, 20.0], &[3.0, 4.0, 9.0]),
+            &p(),
+            &mut out,
+        );
         assert!(out.iter().all(|&g| !g));
     }
 

@@ -47,107 +47,56 @@ pub mod render;
 pub mod score;
 pub mod step;
 
-use mimnav_shared::config::{Config, LayerConfig, LayerUnit};
+use mimnav_shared::config::{Config, LayerConfig, LayerUnit, MapperConfig, RobotProfile};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{Point, cell_class, return_type};
 
-use crate::glass::{Frame, GlassMemory, RingReturn, SpikeParams, detect_spikes};
+use crate::glass::{Frame, GlassMemory, RingReturn, detect_spikes};
 use mimnav_shared::pose::{Pose2, Pose2Ext};
 
-/// Everything the mapper needs to know.
+/// Everything the mapper is set by: the grid of `[map]`, the robot of `[robot]` (the sensor's
+/// height, and the layers sized for it when `mapper.layer` is empty) and `[mapper]` itself. The
+/// sections are held as the config has them; what the mapper needs in other units (ns, f32, the
+/// 0–255 cost) is converted where it is used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapperParams {
-    /// The grid.
+    /// The grid (`[map]`).
     pub grid: GridSpec,
-    /// The layers (at least `below`, `above`, `zero`, `minus_eps`).
-    pub layers: Vec<LayerConfig>,
-    /// Height of the sensor above the ground, m.
-    pub sensor_height_m: f64,
-    /// Points lower than this above the ground are ground, m.
-    pub ground_clearance_m: f64,
-    /// Intensity full scale R.
-    pub full_scale: f32,
-    /// Γ, normalised.
-    pub gamma: f32,
-    /// A cell with a return brighter than this (normalised) is solid.
-    pub solid_max: f32,
-    /// Single-echo and stopped returns count as opaque evidence from this brightness
-    /// (normalised).
-    pub opaque_min: f32,
-    /// A cell with a return higher than this above the ground that no beam passed through is
-    /// solid, m.
-    pub tall_m: f64,
-    /// Returns in one revolution, none passed through, that make a cell solid whatever their
-    /// intensity and height.
-    pub stop_min_returns: u16,
-    /// Returns with none passed through that make a cell solid.
-    pub min_returns_solid: u16,
-    /// Surface along a ring: ranges within this lie on one surface, m.
-    pub surface_tolerance_m: f32,
-    /// Surface along a ring: firings compared on each side.
-    pub surface_window: usize,
-    /// Surface along a ring: neighbours on the same surface that make a return a surface return.
-    pub surface_neighbours: usize,
-    /// Surface returns in one revolution that make a cell solid (0: off).
-    pub surface_min_returns: u16,
-    /// Surface cells are kept this long, ns (0: not kept).
-    pub surface_memory_ns: u64,
-    /// Kept surface cells farther than this are forgotten, m.
-    pub surface_memory_m: f64,
-    /// Tall cells are kept this long, ns (0: not kept).
-    pub tall_memory_ns: u64,
-    /// Kept tall cells farther than this are forgotten, m.
-    pub tall_memory_m: f64,
-    /// Glass spike detector.
-    pub spike: SpikeParams,
-    /// Glass memory: age limit, ns.
-    pub glass_memory_ns: u64,
-    /// Glass memory: distance limit, m.
-    pub glass_memory_m: f64,
-    /// Glass memory: gap fill, m.
-    pub glass_gap_fill_m: f64,
-    /// Panes are extended along their line to a solid within this, m (0: never).
-    pub glass_extend_m: f32,
-    /// Cost of a passable cell, 0–255.
-    pub passable_cost: u8,
+    /// The robot (`[robot]`).
+    pub robot: RobotProfile,
+    /// `[mapper]`.
+    pub mapper: MapperConfig,
 }
 
 impl MapperParams {
     /// Parameters from the stack's config.
     pub fn from_config(config: &Config) -> Self {
-        let m = &config.mapper;
         MapperParams {
             grid: config.map.grid(),
-            layers: m.layers_for(&config.robot),
-            sensor_height_m: config.robot.sensor_height_m,
-            ground_clearance_m: m.ground_clearance_m,
-            full_scale: m.full_scale as f32,
-            gamma: m.gamma as f32,
-            solid_max: m.solid_max as f32,
-            opaque_min: m.opaque_min as f32,
-            tall_m: m.tall_m,
-            stop_min_returns: m.stop_min_returns.min(u32::from(u16::MAX)) as u16,
-            min_returns_solid: m.min_returns_solid.min(u32::from(u16::MAX)) as u16,
-            surface_tolerance_m: m.surface_tolerance_m as f32,
-            surface_window: m.surface_window as usize,
-            surface_neighbours: m.surface_neighbours as usize,
-            surface_min_returns: m.surface_min_returns.min(u32::from(u16::MAX)) as u16,
-            surface_memory_ns: (m.surface_memory_s * 1e9) as u64,
-            surface_memory_m: m.surface_memory_m,
-            tall_memory_ns: (m.tall_memory_s * 1e9) as u64,
-            tall_memory_m: m.tall_memory_m,
-            spike: SpikeParams {
-                threshold: m.glass_intensity as f32,
-                gradient: m.glass_gradient as f32,
-                width_deg: m.glass_width_deg as f32,
-                range_tolerance_m: m.glass_range_tolerance_m as f32,
-            },
-            glass_memory_ns: (m.glass_memory_s * 1e9) as u64,
-            glass_memory_m: m.glass_memory_m,
-            glass_gap_fill_m: m.glass_gap_fill_m,
-            glass_extend_m: m.glass_extend_m as f32,
-            passable_cost: (m.passable_cost * 255.0).round() as u8,
+            robot: config.robot.clone(),
+            mapper: config.mapper.clone(),
         }
+    }
+
+    /// The layers in force (at least `below`, `above`, `zero`, `minus_eps`): `mapper.layer`, or
+    /// the paper's four sized for the robot.
+    pub fn layers(&self) -> Vec<LayerConfig> {
+        self.mapper.layers_for(&self.robot)
+    }
+
+    /// How long kept glass is remembered (`mapper.glass_memory_s`), ns.
+    pub fn glass_memory_ns(&self) -> u64 {
+        ns(self.mapper.glass_memory_s)
+    }
+
+    /// How long kept surface cells are remembered (`mapper.surface_memory_s`), ns; 0: not kept.
+    pub fn surface_memory_ns(&self) -> u64 {
+        ns(self.mapper.surface_memory_s)
+    }
+
+    /// How long kept tall cells are remembered (`mapper.tall_memory_s`), ns; 0: not kept.
+    pub fn tall_memory_ns(&self) -> u64 {
+        ns(self.mapper.tall_memory_s)
     }
 }
 
@@ -155,6 +104,16 @@ impl Default for MapperParams {
     fn default() -> Self {
         MapperParams::from_config(&Config::default())
     }
+}
+
+/// Seconds as ns (truncated).
+fn ns(s: f64) -> u64 {
+    (s * 1e9) as u64
+}
+
+/// A count of returns as the per-cell evidence counts them (saturating at `u16::MAX`).
+fn returns(n: u32) -> u16 {
+    n.min(u32::from(u16::MAX)) as u16
 }
 
 /// Odometry: where the robot is and how it moves.
@@ -281,9 +240,9 @@ impl Mapper {
     /// A mapper with empty buffers.
     pub fn new(params: MapperParams) -> Self {
         let n2 = params.grid.len();
-        let m = params.layers.len();
-        let bounds = params
-            .layers
+        let layers = params.layers();
+        let m = layers.len();
+        let bounds = layers
             .iter()
             .map(|l| match l.unit {
                 LayerUnit::M => LayerBounds {
@@ -299,10 +258,10 @@ impl Mapper {
             })
             .collect();
         let roles = [
-            role(&params.layers, "below"),
-            role(&params.layers, "above"),
-            role(&params.layers, "zero"),
-            role(&params.layers, "minus_eps"),
+            role(&layers, "below"),
+            role(&layers, "above"),
+            role(&layers, "zero"),
+            role(&layers, "minus_eps"),
         ];
         let mut cell_range = Vec::with_capacity(n2);
         let mut cell_bin = Vec::with_capacity(n2);
@@ -317,7 +276,7 @@ impl Mapper {
         let g = params.grid.cell_m;
         Mapper {
             bounds,
-            layer_scale: 1.0 / (params.full_scale * g * g),
+            layer_scale: 1.0 / (params.mapper.full_scale as f32 * g * g),
             roles,
             layer: vec![LayerCell::default(); m * n2],
             evidence: vec![Evidence::default(); n2],
@@ -392,7 +351,7 @@ impl Mapper {
         if c == 0 {
             0.0
         } else {
-            cell.sum / (f32::from(c) * self.params.full_scale)
+            cell.sum / (f32::from(c) * self.params.mapper.full_scale as f32)
         }
     }
 
@@ -426,7 +385,8 @@ impl Mapper {
         self.remember_glass(odom, now_ns);
         stats.glass_memory = self.memory.len() as u32;
         // classes (equations 3–5) and cost
-        let surface_cue = self.params.surface_min_returns > 0;
+        let surface_min_returns = returns(self.params.mapper.surface_min_returns);
+        let surface_cue = surface_min_returns > 0;
         self.classify(surface_cue);
         let grid = self.params.grid;
         if surface_cue {
@@ -436,7 +396,7 @@ impl Mapper {
                 let i = self.touched[t] as usize;
                 if self.surface_candidate[i] {
                     self.surface_candidate[i] = false;
-                    if self.evidence[i].surface >= self.params.surface_min_returns {
+                    if self.evidence[i].surface >= surface_min_returns {
                         self.classes[i] = cell_class::SOLID;
                         self.cost[i] = 255;
                         self.surface_cells.push(i);
@@ -467,7 +427,7 @@ impl Mapper {
             &self.classes,
             grid,
             EXTEND_LINK_M,
-            self.params.glass_extend_m,
+            self.params.mapper.glass_extend_m as f32,
             &mut self.glass_marked,
         );
         for &i in &added {
@@ -505,9 +465,10 @@ impl Mapper {
     /// surface cues.
     fn bin(&mut self, points: &[Point], odom: OdomInput, stats: &mut UpdateStats) {
         let m = self.bounds.len();
-        let surface_cue = self.params.surface_min_returns > 0;
+        let mp = &self.params.mapper;
+        let surface_cue = mp.surface_min_returns > 0;
         let grid = self.params.grid;
-        let ground_z = -(self.params.sensor_height_m - self.params.ground_clearance_m) as f32;
+        let ground_z = -(self.params.robot.sensor_height_m - mp.ground_clearance_m) as f32;
         let zero_b = self.bounds[self.roles[2]];
         // De-skew: a revolution takes 0.05–0.2 s, in which a turning robot rotates by up to
         // several degrees. Each point moves into the robot frame at the revolution's end, from
@@ -518,10 +479,11 @@ impl Mapper {
             _ => (0.0, 0.0),
         };
         let t_end = points.last().map_or(0, |p| p.time_offset_ns);
-        let gamma_abs = self.params.gamma * self.params.full_scale;
+        let full_scale = mp.full_scale as f32;
+        let gamma_abs = mp.gamma as f32 * full_scale;
         // the single-echo and stopped cues only count returns at least this bright: a beam that
         // clips one grass blade and then meets nothing (the sky) has one faint echo too
-        let opaque_min = (self.params.opaque_min * self.params.full_scale)
+        let opaque_min = (mp.opaque_min as f32 * full_scale)
             .round()
             .clamp(0.0, 255.0) as u8;
         let deskew = v != 0.0 || omega != 0.0;
@@ -700,7 +662,7 @@ impl Mapper {
                 padded.push(*rr);
                 index.push(Some(*k));
             }
-            detect_spikes(&padded, &self.params.spike, &mut self.spikes);
+            detect_spikes(&padded, &self.params.mapper, &mut self.spikes);
             for (n, g) in self.spikes.iter().enumerate() {
                 if !g {
                     continue;
@@ -734,8 +696,8 @@ impl Mapper {
                 self.memory.expire(
                     &pose,
                     now_ns,
-                    self.params.glass_memory_ns,
-                    self.params.glass_memory_m,
+                    self.params.glass_memory_ns(),
+                    self.params.mapper.glass_memory_m,
                 );
                 self.last_pose = Some(pose);
             }
@@ -745,7 +707,7 @@ impl Mapper {
             self.memory.draw(
                 &pose,
                 grid,
-                self.params.glass_gap_fill_m,
+                self.params.mapper.glass_gap_fill_m,
                 &mut self.glass_drawn,
                 &mut self.glass_marked,
             );
@@ -773,11 +735,15 @@ impl Mapper {
             };
         }
         self.cost.fill(0);
-        let gamma = self.params.gamma;
+        let mp = &self.params.mapper;
+        let gamma = mp.gamma as f32;
         self.surface_cells.clear();
         self.tall_cells.clear();
-        let solid_max_abs = self.params.solid_max * self.params.full_scale;
-        let tall_z = (self.params.tall_m - self.params.sensor_height_m) as f32;
+        let solid_max_abs = mp.solid_max as f32 * mp.full_scale as f32;
+        let tall_z = (mp.tall_m - self.params.robot.sensor_height_m) as f32;
+        let (min_returns_solid, stop_min_returns) =
+            (returns(mp.min_returns_solid), returns(mp.stop_min_returns));
+        let passable_cost = mp.passable_cell_cost();
         for t in 0..self.touched.len() {
             let i = self.touched[t] as usize;
             let e = self.evidence[i];
@@ -795,14 +761,13 @@ impl Mapper {
                 .unwrap_or(0);
             let bright = f32::from(brightest) > solid_max_abs;
             let ended = e.single.saturating_add(e.stopped);
-            let opaque =
-                e.passed == 0 && ended >= self.params.min_returns_solid && 2 * ended > e.hits;
+            let opaque = e.passed == 0 && ended >= min_returns_solid && 2 * ended > e.hits;
             let opaque = opaque || 2 * e.inside >= e.hits;
             // taller than grass grows and no beam passed through it: a trunk or a bush
             let tall = e.top_z > tall_z && e.passed == 0;
             // many returns and not one beam through: a surface that stops every beam, however
             // faint (grass lets some beams on from nearly every cell it returns from)
-            let stops = e.passed == 0 && e.hits >= self.params.stop_min_returns;
+            let stops = e.passed == 0 && e.hits >= stop_min_returns;
             // the surface cue looks at cells that stand out neither by brightness or height nor
             // as an opaque surface (walls: the memory stays small)
             self.surface_candidate[i] = surface_cue && !tall && !bright && !opaque;
@@ -811,7 +776,7 @@ impl Mapper {
             }
             if mean <= gamma && !opaque && !tall && !stops && !bright {
                 self.classes[i] = cell_class::PASSABLE;
-                self.cost[i] = self.params.passable_cost;
+                self.cost[i] = passable_cost;
             } else {
                 self.classes[i] = cell_class::SOLID;
                 self.cost[i] = 255;
@@ -825,7 +790,8 @@ impl Mapper {
     /// solid: a rock lower than the lowest beam reaches beside the robot is out of sight while
     /// the robot passes it. Like the glass memory, it does not move without fresh odometry.
     fn remember_surfaces(&mut self, odom: OdomInput, now_ns: u64) {
-        if self.params.surface_memory_ns == 0 {
+        let max_age_ns = self.params.surface_memory_ns();
+        if max_age_ns == 0 {
             return;
         }
         let grid = self.params.grid;
@@ -837,8 +803,8 @@ impl Mapper {
                 grid,
                 &pose,
                 now_ns,
-                self.params.surface_memory_ns,
-                self.params.surface_memory_m,
+                max_age_ns,
+                self.params.mapper.surface_memory_m,
                 |_| false,
             );
         } else if let Some(pose) = self.last_pose {
@@ -860,7 +826,8 @@ impl Mapper {
     /// cell now and then, never for long), and one next to a solid cell of this revolution is
     /// not drawn (what is seen now is where the object is).
     fn remember_tall(&mut self, odom: OdomInput, now_ns: u64) {
-        if self.params.tall_memory_ns == 0 {
+        let max_age_ns = self.params.tall_memory_ns();
+        if max_age_ns == 0 {
             return;
         }
         let grid = self.params.grid;
@@ -874,8 +841,8 @@ impl Mapper {
                 grid,
                 &pose,
                 now_ns,
-                self.params.tall_memory_ns,
-                self.params.tall_memory_m,
+                max_age_ns,
+                self.params.mapper.tall_memory_m,
                 through,
             );
         } else if let Some(pose) = self.last_pose {
@@ -898,9 +865,9 @@ impl Mapper {
     /// as a surface return in its cell. Only the candidates (cells not bright, tall or opaque)
     /// are looked at.
     fn mark_surfaces(&mut self) {
-        let w = self.params.surface_window;
-        let need = self.params.surface_neighbours;
-        let tol = self.params.surface_tolerance_m;
+        let w = self.params.mapper.surface_window as usize;
+        let need = self.params.mapper.surface_neighbours as usize;
+        let tol = self.params.mapper.surface_tolerance_m as f32;
         for ring in &self.last_rings {
             for (k, lr) in ring.iter().enumerate() {
                 if lr.cell == NO_CELL || !self.surface_candidate[lr.cell as usize] {

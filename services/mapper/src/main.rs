@@ -40,10 +40,7 @@ fn run(config: &Config) -> Result<()> {
     let points = ipc::points_subscriber(svc.node())?;
     let odom_sub = ipc::odom_subscriber(svc.node())?;
     let mut step = MapStep::from_config(config);
-    let (grid, n_layers) = (
-        step.mapper().params().grid,
-        step.mapper().params().layers.len(),
-    );
+    let (grid, n_layers) = (step.mapper().params().grid, step.mapper().layer_count());
     let layers_pub = ipc::layers_publisher(svc.node(), n_layers * grid.len())?;
     let plan_pub = ipc::plan_publisher(svc.node(), grid.len())?;
     tracing::info!(

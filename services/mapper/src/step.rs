@@ -135,7 +135,7 @@ impl MapStep {
             yaw: o.yaw,
             cells: grid.cells as u32,
             cell_m: grid.cell_m,
-            layers: self.mapper.params().layers.len() as u32,
+            layers: self.mapper.layer_count() as u32,
             processing_us: 0,
             status,
             reserved: [0; 7],

@@ -24,6 +24,13 @@ fn mapper() -> Mapper {
     Mapper::new(MapperParams::default())
 }
 
+/// A mapper with the defaults but for what `f` changes in `[mapper]`.
+fn mapper_with(f: impl FnOnce(&mut MapperConfig)) -> Mapper {
+    let mut p = MapperParams::default();
+    f(&mut p.mapper);
+    Mapper::new(p)
+}
+
 fn class_at(m: &Mapper, x: f32, y: f32) -> u8 {
     let g = m.params().grid;
     let (r, c) = g.cell_of(x, y).expect("inside");
@@ -42,7 +49,7 @@ fn equation_1_sums_normalised_intensity_over_the_cell_area() {
     m.update(&pts, OdomInput::Missing, 0);
     let above = m
         .params()
-        .layers
+        .layers()
         .iter()
         .position(|l| l.name == "above")
         .expect("layer");
@@ -97,7 +104,10 @@ fn equations_3_to_5_split_solid_and_passable_by_mean_intensity() {
     let (r, c) = g.cell_of(3.0, 0.0).expect("inside");
     assert_eq!(m.cost()[g.index(r, c)], 255);
     let (r, c) = g.cell_of(1.0, 0.5).expect("inside");
-    assert_eq!(m.cost()[g.index(r, c)], m.params().passable_cost);
+    assert_eq!(
+        m.cost()[g.index(r, c)],
+        m.params().mapper.passable_cell_cost()
+    );
 }
 
 #[test]
@@ -110,10 +120,7 @@ fn a_dim_cell_no_beam_passes_through_is_solid() {
     m.update(&pts, OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::SOLID);
     // with fewer single-echo returns than min_returns_solid it stays passable by equation 3
-    let mut m = Mapper::new(MapperParams {
-        min_returns_solid: 3,
-        ..MapperParams::default()
-    });
+    let mut m = mapper_with(|m| m.min_returns_solid = 3);
     m.update(&pts[..2], OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
     // and so do dim returns that were not alone on their beam (grass, where beams die in it)
@@ -149,7 +156,11 @@ fn a_faint_surface_that_stops_every_beam_is_solid() {
         .flat_map(|k| through_blade(2.0, 0.5, -0.3 + 0.02 * k as f32, 1.0, (k % 16) as u8))
         .collect();
     let mut m = mapper();
-    assert_eq!(m.params().stop_min_returns, 16, "the documented default");
+    assert_eq!(
+        m.params().mapper.stop_min_returns,
+        16,
+        "the documented default"
+    );
     m.update(&trunk, OdomInput::Missing, 0);
     assert_eq!(
         class_at(&m, 2.0, 0.5),
@@ -329,10 +340,7 @@ fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() 
 
 #[test]
 fn glass_memory_expires_by_age() {
-    let mut m = Mapper::new(MapperParams {
-        glass_memory_ns: 1_000_000_000,
-        ..MapperParams::default()
-    });
+    let mut m = mapper_with(|m| m.glass_memory_s = 1.0);
     m.update(&glass_scene(false), OdomInput::Fresh(Odom::default()), 0);
     m.update(&[], OdomInput::Fresh(Odom::default()), 2_000_000_000);
     assert_ne!(class_at(&m, 4.0, 0.0), cell_class::GLASS);
@@ -384,10 +392,7 @@ fn a_rock_below_the_grass_tops_is_solid_by_its_surface_along_the_ring() {
         );
     }
     // it is the surface cue that says so
-    let mut off = Mapper::new(MapperParams {
-        surface_min_returns: 0,
-        ..MapperParams::default()
-    });
+    let mut off = mapper_with(|m| m.surface_min_returns = 0);
     off.update(&rock, OdomInput::Missing, 0);
     assert_eq!(class_at(&off, 1.5, 0.0), cell_class::PASSABLE);
     // blades at scattered ranges along the ring are not a surface
@@ -469,17 +474,14 @@ fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry(
     );
     // forgotten after surface_memory_s (3 s)
     assert_eq!(
-        m.params().surface_memory_ns,
+        m.params().surface_memory_ns(),
         3 * s,
         "the documented default"
     );
     m.update(&[], fresh(1.0, 0.0), 4 * s);
     assert_ne!(class_at(&m, 0.5, 0.0), cell_class::SOLID, "expired");
     // and not kept at all with surface_memory_s = 0
-    let mut m = Mapper::new(MapperParams {
-        surface_memory_ns: 0,
-        ..MapperParams::default()
-    });
+    let mut m = mapper_with(|m| m.surface_memory_s = 0.0);
     m.update(&rock, fresh(0.0, 0.0), 0);
     m.update(&rock, fresh(0.0, 0.0), s / 10);
     m.update(&[], fresh(0.0, 0.0), s / 5);
@@ -536,14 +538,15 @@ fn a_tall_cell_found_twice_is_kept_where_grass_hides_it_and_moves_with_the_odome
         "stale odometry"
     );
     // forgotten after tall_memory_s (10 s)
-    assert_eq!(m.params().tall_memory_ns, 10 * s, "the documented default");
+    assert_eq!(
+        m.params().tall_memory_ns(),
+        10 * s,
+        "the documented default"
+    );
     m.update(&[], fresh(1.0, 0.0), 12 * s);
     assert_ne!(class_at(&m, x - 1.0, y), cell_class::SOLID, "expired");
     // and never kept with tall_memory_s = 0
-    let mut m = Mapper::new(MapperParams {
-        tall_memory_ns: 0,
-        ..MapperParams::default()
-    });
+    let mut m = mapper_with(|m| m.tall_memory_s = 0.0);
     m.update(&bush_top(x, y), fresh(0.0, 0.0), 0);
     m.update(&bush_top(x, y), fresh(0.0, 0.0), s / 10);
     m.update(&bush_through_grass(x - 1.0, y), fresh(1.0, 0.0), s);

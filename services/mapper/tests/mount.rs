@@ -30,7 +30,7 @@ fn revolutions(
     let mut driver = WaypointDriver::new(scene.survey.clone(), 0.25);
     let mut sim = Sim::new(scene, SimSettings::from_config(config), 1, DEFAULT_EPOCH_NS);
     let mut asm = Assembler::new(AssemblerConfig::from_config(config));
-    let limits = sim.settings().limits;
+    let limits = sim.settings().robot.clone();
     let mut out = Vec::new();
     while sim.outcome() == Outcome::Running && !driver.done() && out.len() < 80 {
         let step = sim.step();

@@ -518,7 +518,7 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     route.build(
         &mimnav_planner::route::RouteParams {
             cell_m: 0.1,
-            radius_m: (p.dwa.radius_m + p.dwa.margin_m) as f32,
+            radius_m: p.footprint_m() as f32,
             cost_weight: 0.0,
             settle_within_m: 0.0,
         },

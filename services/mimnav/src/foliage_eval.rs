@@ -35,7 +35,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_foliage::FoliageParams;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
 use mimnav_shared::topics::{cell_class, foliage_class};
@@ -253,7 +252,7 @@ pub fn run_episode(
     min_returns: usize,
     min_run: usize,
 ) -> Result<Episode> {
-    let params = FoliageParams::from_config(&config.foliage);
+    let params = config.foliage;
     let (d_min, d_max) = (params.d_min_m, params.d_max_m);
     let mut scene = scene.clone();
     // the episode ends after `scans` revolutions, not at the world's time limit
@@ -580,7 +579,7 @@ pub fn run(
             c.robot.name
         );
         speeds.push(v);
-        FoliageParams::from_config(&c.foliage)
+        c.foliage
             .validate()
             .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     }
@@ -656,7 +655,7 @@ pub fn run(
             }
         }
     }
-    let p = FoliageParams::from_config(&config.foliage);
+    let p = config.foliage;
     println!(
         "{} seeds (from seed {}) × {} scans per world, robot and motion; laser {} ({}), d = [{}, {}] m; moving: straight at {}",
         args.seeds,
@@ -664,8 +663,8 @@ pub fn run(
         args.scans,
         config.velodyne.scan_laser,
         match config.velodyne.scan_return {
-            mimnav_shared::config::ScanReturnConfig::Strongest => "strongest return",
-            mimnav_shared::config::ScanReturnConfig::Last => "last return",
+            mimnav_shared::config::ScanReturnSelect::Strongest => "strongest return",
+            mimnav_shared::config::ScanReturnSelect::Last => "last return",
         },
         p.d_min_m,
         p.d_max_m,

@@ -84,7 +84,7 @@ pub fn score_world(
     let mut visible = MapScore::default();
     let (mut revolutions, mut seen) = (0u64, 0u64);
     let mut mapper_ns = 0u128;
-    let limits = stack.sim().settings().limits;
+    let limits = stack.sim().settings().robot.clone();
     while !driver.done() {
         let Some(turn) = stack.next_revolution()? else {
             break;

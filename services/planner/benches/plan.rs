@@ -46,7 +46,7 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
             std::process::exit(1);
         }
     };
-    let limits = stack.sim().settings().limits;
+    let limits = stack.sim().settings().robot.clone();
     let mut out = Vec::new();
     let mut k = 0;
     while !driver.done() {
@@ -68,7 +68,7 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
 
 fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     let mut params = PlannerParams::from_config(config);
-    params.inflation = inflation;
+    params.planner.inflation = inflation;
     let mut planner = Planner::new(params);
     let grid = config.map.grid();
     let mut times = Vec::new();
@@ -83,13 +83,14 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     times.sort_by(f64::total_cmp);
     let mean = times.iter().sum::<f64>() / times.len() as f64;
     let p99 = times[(times.len() * 99 / 100).min(times.len() - 1)];
+    let p = &planner.params().planner;
     println!(
         "{name}, {inflation:?} inflation: mean {mean:.0} µs, median {:.0} µs, p99 {p99:.0} µs per map ({} maps of {} cells, {} samples × {} steps)",
         times[times.len() / 2],
         times.len(),
         grid.len(),
-        params.dwa.v_samples * params.dwa.omega_samples,
-        (params.dwa.horizon_s / params.dwa.dt_s).ceil()
+        p.v_samples * p.omega_samples,
+        (p.horizon_s / p.dt_s).ceil()
     );
 }
 
@@ -100,17 +101,14 @@ fn breakdown(config: &Config, maps: &[Case]) {
     use mimnav_planner::route::{Route, RouteParams};
     let params = PlannerParams::from_config(config);
     let grid = config.map.grid();
-    let mut kernels = KernelCache::new(
-        params.kernel_cells,
-        params.padding_cells,
-        params.kernel_angles,
+    let p = &params.planner;
+    let mut kernels = KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles);
+    let (mut cost, mut clear, mut route) = (
+        Vec::new(),
+        mimnav_planner::clearance::Clearance::default(),
+        Route::default(),
     );
-    let (mut cost, mut clear, mut route) =
-        (Vec::new(), dwa::Clearance::default(), Route::default());
-    let reach = (params.dwa.max_v * params.dwa.horizon_s
-        + params.dwa.radius_m
-        + params.dwa.margin_m) as f32
-        + 2.0 * grid.cell_m;
+    let reach = params.reach_m() as f32 + 2.0 * grid.cell_m;
     let mut t = [0.0f64; 4];
     let mut n = 0;
     for (classes, v, w, goal) in maps.iter().cycle().take(maps.len() * 20) {
@@ -118,7 +116,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
         plan_cost(
             classes,
             grid,
-            kernels.get(params.inflation, goal.1.atan2(goal.0)),
+            kernels.get(p.inflation, goal.1.atan2(goal.0)),
             params.passable_cost,
             &mut cost,
         );
@@ -129,9 +127,9 @@ fn breakdown(config: &Config, maps: &[Case]) {
         let s = Instant::now();
         route.build(
             &RouteParams {
-                cell_m: params.route_cell_m,
-                radius_m: (params.dwa.radius_m + params.dwa.margin_m) as f32,
-                cost_weight: params.route_cost_weight,
+                cell_m: p.route_cell_m as f32,
+                radius_m: params.footprint_m() as f32,
+                cost_weight: p.route_cost_weight as f32,
                 settle_within_m: reach,
             },
             grid,
@@ -142,7 +140,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
         t[2] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         std::hint::black_box(dwa::plan(
-            &params.dwa,
+            &params,
             grid,
             &cost,
             &clear,

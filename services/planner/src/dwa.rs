@@ -9,66 +9,10 @@
 //! cost summed along them on the planning map (eq. 12), and the cheapest wins.
 
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::topics::cell_class;
 
+use crate::clearance::Clearance;
+use crate::params::PlannerParams;
 use crate::route::Route;
-
-/// Settings of the planner's search.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DwaParams {
-    /// Largest forward speed, m/s.
-    pub max_v: f64,
-    /// Largest turn rate, rad/s.
-    pub max_omega: f64,
-    /// Largest linear acceleration, m/s².
-    pub max_accel: f64,
-    /// Largest angular acceleration, rad/s².
-    pub max_alpha: f64,
-    /// Footprint radius, m.
-    pub radius_m: f64,
-    /// Distance kept from solid and glass cells beyond the footprint, m. At least a cell: the
-    /// clearance is measured between cell centres, so it overstates the distance to a surface by
-    /// up to half a cell's diagonal, and a surface seen obliquely fills its outermost cells last.
-    pub margin_m: f64,
-    /// Time the window's accelerations apply over (the control period), s.
-    pub window_s: f64,
-    /// Rollout step, s.
-    pub dt_s: f64,
-    /// Rollout horizon, s.
-    pub horizon_s: f64,
-    /// Speed samples.
-    pub v_samples: usize,
-    /// Turn-rate samples.
-    pub omega_samples: usize,
-    /// Weight of the remaining distance to the goal, per metre.
-    pub goal_weight: f64,
-    /// Weight of driving slower than the top speed, per m/s.
-    pub speed_weight: f64,
-    /// Weight of the summed obstacle cost (each cell 0–1).
-    pub obstacle_weight: f64,
-}
-
-impl Default for DwaParams {
-    /// The authors' starting point (DESIGN §7) on a Turtlebot 2's limits.
-    fn default() -> Self {
-        DwaParams {
-            max_v: 0.5,
-            max_omega: 1.5,
-            max_accel: 0.6,
-            max_alpha: 3.0,
-            radius_m: 0.2,
-            margin_m: 0.1,
-            window_s: 0.5,
-            dt_s: 0.1,
-            horizon_s: 3.5,
-            v_samples: 11,
-            omega_samples: 21,
-            goal_weight: 5.0,
-            speed_weight: 0.1,
-            obstacle_weight: 1.0,
-        }
-    }
-}
 
 /// What the search decided.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,147 +30,6 @@ pub enum DwaOutcome {
     Blocked,
 }
 
-/// Distance to the nearest solid or glass cell, m, over a square window of the map around the
-/// robot (two-pass chamfer transform, capped). Only the window the dynamic window's rollouts can
-/// reach is computed; obstacles beyond its edge do not count, so the window must reach past the
-/// rollouts by the distance that matters (the footprint and margin).
-#[derive(Debug, Clone, Default)]
-pub struct Clearance {
-    /// First row and column of the window.
-    lo: usize,
-    /// Side of the window, cells.
-    side: usize,
-    /// Map side, cells.
-    cells: usize,
-    data: Vec<f32>,
-}
-
-impl Clearance {
-    /// Computes the clearance of the cells within `half_m` of the map's centre (the robot),
-    /// capped at `cap_m`.
-    pub fn compute(&mut self, classes: &[u8], grid: GridSpec, half_m: f32, cap_m: f32) {
-        let n = grid.cells;
-        let half = ((half_m / grid.cell_m).ceil().max(1.0) as usize).min(n / 2);
-        let lo = n / 2 - half;
-        let side = (2 * half).min(n - lo);
-        self.lo = lo;
-        self.side = side;
-        self.cells = n;
-        self.data.clear();
-        if classes.len() < grid.len() || side == 0 {
-            self.side = 0;
-            return;
-        }
-        for r in lo..lo + side {
-            self.data
-                .extend(classes[r * n + lo..r * n + lo + side].iter().map(|&c| {
-                    if c == cell_class::SOLID || c == cell_class::GLASS {
-                        0.0
-                    } else {
-                        cap_m
-                    }
-                }));
-        }
-        chamfer(&mut self.data, side, grid.cell_m);
-    }
-
-    /// The clearance of map cell (r, c), m; 0 outside the window (never drive there).
-    #[inline]
-    pub fn at(&self, r: usize, c: usize) -> f32 {
-        let (r, c) = (r.wrapping_sub(self.lo), c.wrapping_sub(self.lo));
-        if r < self.side && c < self.side {
-            self.data[r * self.side + c]
-        } else {
-            0.0
-        }
-    }
-}
-
-/// Distance from every cell to the nearest solid or glass cell over the whole map, m, capped at
-/// `cap_m` (row-major, as the map).
-pub fn clearance(classes: &[u8], grid: GridSpec, cap_m: f32, out: &mut Vec<f32>) {
-    out.clear();
-    out.extend(classes.iter().map(|&c| {
-        if c == cell_class::SOLID || c == cell_class::GLASS {
-            0.0
-        } else {
-            cap_m
-        }
-    }));
-    if out.len() == grid.len() {
-        chamfer(out, grid.cells, grid.cell_m);
-    }
-}
-
-/// The two-pass chamfer distance transform of a `side` × `side` buffer holding 0 at obstacles
-/// and the cap elsewhere; `g` is the cell size.
-pub(crate) fn chamfer(out: &mut [f32], n: usize, g: f32) {
-    let diag = g * std::f32::consts::SQRT_2;
-    if n == 0 || out.len() < n * n {
-        return;
-    }
-    // Forward pass, row by row: first the three neighbours of the row above (independent of
-    // each other, so the compiler can vectorise), then the left neighbour, which runs along the
-    // row; the result is the same as the cell-by-cell pass. The backward pass mirrors it.
-    {
-        let first = &mut out[..n];
-        for c in 1..n {
-            first[c] = lesser(first[c], first[c - 1] + g);
-        }
-    }
-    for r in 1..n {
-        let (above, rest) = out.split_at_mut(r * n);
-        let prev = &above[(r - 1) * n..];
-        let cur = &mut rest[..n];
-        rows_min(cur, prev, g, diag);
-        for c in 1..n {
-            cur[c] = lesser(cur[c], cur[c - 1] + g);
-        }
-    }
-    {
-        let last = &mut out[(n - 1) * n..];
-        for c in (0..n - 1).rev() {
-            last[c] = lesser(last[c], last[c + 1] + g);
-        }
-    }
-    for r in (0..n - 1).rev() {
-        let (head, below) = out.split_at_mut((r + 1) * n);
-        let next = &below[..n];
-        let cur = &mut head[r * n..];
-        rows_min(cur, next, g, diag);
-        for c in (0..n - 1).rev() {
-            cur[c] = lesser(cur[c], cur[c + 1] + g);
-        }
-    }
-}
-
-/// The smaller of `a` and `b`, as one `minss`/`minps` instruction (no NaN rules: there are no
-/// NaNs here), so the row loops vectorise.
-#[inline(always)]
-fn lesser(a: f32, b: f32) -> f32 {
-    if b < a { b } else { a }
-}
-
-/// `cur[c] = min(cur[c], other[c] + g, other[c ± 1] + diag)`: the neighbours in the row above or
-/// below.
-#[inline]
-fn rows_min(cur: &mut [f32], other: &[f32], g: f32, diag: f32) {
-    let n = cur.len().min(other.len());
-    if n == 1 {
-        cur[0] = lesser(cur[0], other[0] + g);
-        return;
-    }
-    cur[0] = lesser(lesser(cur[0], other[0] + g), other[1] + diag);
-    for ((c, w), o) in cur[1..n - 1]
-        .iter_mut()
-        .zip(other[..n - 2].iter().zip(&other[2..n]))
-        .zip(&other[1..n - 1])
-    {
-        *c = lesser(lesser(lesser(*c, o + g), w.0 + diag), w.1 + diag);
-    }
-    cur[n - 1] = lesser(lesser(cur[n - 1], other[n - 1] + g), other[n - 2] + diag);
-}
-
 /// Searches the dynamic window from the current velocity (v0, ω0) towards `goal` (robot frame,
 /// m) on the planning `cost` (0–255 per cell) with the footprint clearance `clear`.
 ///
@@ -234,7 +37,7 @@ fn rows_min(cur: &mut [f32], other: &[f32], g: f32, diag: f32) {
 /// one from the robot's place, and the straight-line distance otherwise (the paper's eq. 12).
 #[allow(clippy::too_many_arguments)]
 pub fn plan(
-    p: &DwaParams,
+    p: &PlannerParams,
     grid: GridSpec,
     cost: &[u8],
     clear: &Clearance,
@@ -243,16 +46,20 @@ pub fn plan(
     goal: (f64, f64),
     route: Option<&Route>,
 ) -> DwaOutcome {
+    let (robot, pl) = (&p.robot, &p.planner);
     let route = route.filter(|r| r.value(0.0, 0.0).is_finite());
     let to_go = |x: f64, y: f64| match route {
         Some(r) => f64::from(r.value(x as f32, y as f32)),
         None => (goal.0 - x).hypot(goal.1 - y),
     };
-    let v_lo = (v0 - p.max_accel * p.window_s).max(0.0);
-    let v_hi = (v0 + p.max_accel * p.window_s).min(p.max_v);
-    let w_lo = (omega0 - p.max_alpha * p.window_s).max(-p.max_omega);
-    let w_hi = (omega0 + p.max_alpha * p.window_s).min(p.max_omega);
-    let steps = (p.horizon_s / p.dt_s).ceil().max(1.0) as usize;
+    let (max_v, max_omega) = (robot.max_linear_mps, robot.max_angular_rps);
+    let (max_accel, max_alpha) = (robot.max_linear_accel, robot.max_angular_accel);
+    let v_lo = (v0 - max_accel * pl.window_s).max(0.0);
+    let v_hi = (v0 + max_accel * pl.window_s).min(max_v);
+    let w_lo = (omega0 - max_alpha * pl.window_s).max(-max_omega);
+    let w_hi = (omega0 + max_alpha * pl.window_s).min(max_omega);
+    let dt_s = pl.dt_s;
+    let steps = (pl.horizon_s / dt_s).ceil().max(1.0) as usize;
     let start_to_go = to_go(0.0, 0.0);
     // Closer than the footprint and margin already (a late detection, or a cell misjudged
     // solid): motions that get no closer still are allowed, so the robot can back out instead
@@ -266,7 +73,7 @@ pub fn plan(
     if start_clear <= 0.0 {
         return DwaOutcome::Blocked;
     }
-    let required = (p.radius_m + p.margin_m).min(start_clear);
+    let required = p.footprint_m().min(start_clear);
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
         if n <= 1 {
@@ -275,13 +82,13 @@ pub fn plan(
             lo + (hi - lo) * k as f64 / (n - 1) as f64
         }
     };
-    for kv in 0..p.v_samples.max(1) {
-        let v = sample(v_lo, v_hi, kv, p.v_samples);
-        for kw in 0..p.omega_samples.max(1) {
-            let w = sample(w_lo, w_hi, kw, p.omega_samples);
+    for kv in 0..pl.v_samples.max(1) {
+        let v = sample(v_lo, v_hi, kv, pl.v_samples);
+        for kw in 0..pl.omega_samples.max(1) {
+            let w = sample(w_lo, w_hi, kw, pl.omega_samples);
             // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling
             // sin and cos each step
-            let (turn_s, turn_c) = (w * p.dt_s).sin_cos();
+            let (turn_s, turn_c) = (w * dt_s).sin_cos();
             let (mut x, mut y) = (0.0f64, 0.0f64);
             let (mut hc, mut hs) = (1.0f64, 0.0f64);
             let mut obstacle = 0.0;
@@ -289,8 +96,8 @@ pub fn plan(
             let mut closest = start_to_go;
             for k in 0..steps {
                 (hc, hs) = (hc * turn_c - hs * turn_s, hs * turn_c + hc * turn_s);
-                x += v * hc * p.dt_s;
-                y += v * hs * p.dt_s;
+                x += v * hc * dt_s;
+                y += v * hs * dt_s;
                 let Some((r, c)) = grid.cell_of(x as f32, y as f32) else {
                     closest = closest.min(to_go(x, y));
                     break;
@@ -315,9 +122,9 @@ pub fn plan(
             if !feasible {
                 continue;
             }
-            let score = p.goal_weight * closest
-                + p.speed_weight * (p.max_v - v)
-                + p.obstacle_weight * obstacle * p.dt_s;
+            let score = pl.goal_weight * closest
+                + pl.speed_weight * (max_v - v)
+                + pl.obstacle_weight * obstacle * dt_s;
             if best.is_none_or(|b| score < b.2) {
                 best = Some((v, w, score));
             }
@@ -332,20 +139,8 @@ pub fn plan(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn map(f: impl Fn(f32, f32) -> u8) -> (GridSpec, Vec<u8>) {
-        let grid = GridSpec {
-            cells: 200,
-            cell_m: 0.05,
-        };
-        let classes = (0..grid.len())
-            .map(|i| {
-                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
-                f(x, y)
-            })
-            .collect();
-        (grid, classes)
-    }
+    use crate::clearance::tests::map;
+    use mimnav_shared::topics::cell_class;
 
     fn run(classes: &[u8], grid: GridSpec, v0: f64, goal: (f64, f64)) -> DwaOutcome {
         let mut clear = Clearance::default();
@@ -354,12 +149,12 @@ mod tests {
             .iter()
             .map(|&c| if c == cell_class::SOLID { 255 } else { 0 })
             .collect();
-        let p = DwaParams::default();
+        let p = PlannerParams::default();
         let mut route = Route::default();
         route.build(
             &crate::route::RouteParams {
                 cell_m: 0.2,
-                radius_m: (p.radius_m + p.margin_m) as f32,
+                radius_m: p.footprint_m() as f32,
                 cost_weight: 1.0,
                 settle_within_m: 0.0,
             },
@@ -369,91 +164,6 @@ mod tests {
             (goal.0 as f32, goal.1 as f32),
         );
         plan(&p, grid, &cost, &clear, v0, 0.0, goal, Some(&route))
-    }
-
-    #[test]
-    fn clearance_measures_the_distance_to_the_nearest_wall() {
-        let (grid, classes) = map(|x, _| {
-            if (x - 1.0).abs() < 0.03 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        });
-        let mut clear = Vec::new();
-        clearance(&classes, grid, 5.0, &mut clear);
-        let at = |x: f32, y: f32| {
-            let (r, c) = grid.cell_of(x, y).expect("inside");
-            clear[grid.index(r, c)]
-        };
-        assert!((at(0.5, 0.0) - 0.5).abs() < 0.06, "{}", at(0.5, 0.0));
-        assert_eq!(at(1.01, 0.0), 0.0);
-    }
-
-    #[test]
-    fn the_window_agrees_with_the_whole_map_inside_and_is_zero_outside() {
-        let (grid, classes) = map(|x, y| {
-            if (x - 1.0).abs() < 0.03 || (y + 2.0).abs() < 0.03 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        });
-        let mut full = Vec::new();
-        clearance(&classes, grid, 5.0, &mut full);
-        let mut window = Clearance::default();
-        window.compute(&classes, grid, 1.5, 5.0);
-        for r in 0..grid.cells {
-            for c in 0..grid.cells {
-                let (x, y) = grid.center_of(r, c);
-                let w = window.at(r, c);
-                if x.abs() < 1.45 && y.abs() < 1.45 {
-                    // obstacles beyond the window are not seen: equal up to what reaches in
-                    let f = full[grid.index(r, c)];
-                    assert!(
-                        w >= f - 1e-5 && (f > 0.4 || (w - f).abs() < 1e-5),
-                        "{r},{c}: {w} {f}"
-                    );
-                } else if x.abs() > 1.55 || y.abs() > 1.55 {
-                    assert_eq!(w, 0.0);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn clearance_is_within_the_chamfer_bound_of_the_true_distance() {
-        // scattered obstacle cells from a fixed LCG; brute force against the transform
-        let grid = GridSpec {
-            cells: 60,
-            cell_m: 0.05,
-        };
-        let mut state = 12345u64;
-        let mut classes = vec![cell_class::FREE; grid.len()];
-        for _ in 0..25 {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            classes[(state >> 33) as usize % grid.len()] = cell_class::SOLID;
-        }
-        classes[grid.index(0, 59)] = cell_class::GLASS;
-        let mut clear = Vec::new();
-        clearance(&classes, grid, 5.0, &mut clear);
-        let obstacles: Vec<(f32, f32)> = (0..grid.len())
-            .filter(|&i| classes[i] != cell_class::FREE)
-            .map(|i| grid.center_of(i / grid.cells, i % grid.cells))
-            .collect();
-        for (i, &got) in clear.iter().enumerate() {
-            let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
-            let truth = obstacles
-                .iter()
-                .map(|&(ox, oy)| (x - ox).hypot(y - oy))
-                .fold(f32::INFINITY, f32::min);
-            assert!(
-                got >= truth - 1e-4 && got <= truth * 1.09 + 1e-4,
-                "cell {i}: {got} against {truth}"
-            );
-        }
     }
 
     #[test]
@@ -540,11 +250,9 @@ mod tests {
         let mut clear = Clearance::default();
         clear.compute(&classes, grid, 3.0, 5.0);
         let cost = vec![0u8; grid.len()];
-        let straight = DwaParams {
-            omega_samples: 1,
-            max_omega: 0.0,
-            ..DwaParams::default()
-        };
+        let mut straight = PlannerParams::default();
+        straight.planner.omega_samples = 1;
+        straight.robot.max_angular_rps = 0.0;
         match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
             DwaOutcome::Blocked => {}

@@ -12,16 +12,8 @@
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
-/// How obstacles are inflated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Inflation {
-    /// The paper's adaptive kernel along the goal direction.
-    Adaptive,
-    /// An all-ones e × e kernel (the ablation).
-    Uniform,
-    /// No inflation.
-    None,
-}
+/// How obstacles are inflated: `planner.inflation`.
+pub use mimnav_shared::config::Inflation;
 
 /// A kernel: the offsets (row, column) of its ones and their cost.
 #[derive(Debug, Clone, PartialEq)]

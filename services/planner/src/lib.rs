@@ -5,98 +5,29 @@
 //!   (eq. 11), with uniform inflation as the paper's ablation;
 //! - [`route`]: a navigation function on the local map, so goal progress is measured around
 //!   obstacles rather than through them (beyond the paper);
-//! - [`dwa`]: the footprint clearance, the dynamic window and the trajectory scores (eq. 12);
-//! - [`Planner`]: the three in order, with their buffers;
+//! - [`clearance`]: the distance to the nearest solid or glass cell (a chamfer transform), which
+//!   the route search and the dynamic window's footprint test both use;
+//! - [`dwa`]: the dynamic window and the trajectory scores (eq. 12);
+//! - [`Planner`]: inflation, clearance, route and dynamic window in order, with their buffers;
 //! - [`pilot`]: the service's step around the planner (input freshness, the goal into the robot
 //!   frame, foliage fusion, the fail-safe), which the service, `mimnav eval` and the lock-step
 //!   runner drive alike.
 #![deny(missing_docs)]
 
+pub mod clearance;
 pub mod dwa;
 pub mod inflate;
+pub mod params;
 pub mod pilot;
 pub mod route;
 
-use mimnav_shared::config::{Config, InflationConfig};
 use mimnav_shared::grid::GridSpec;
 
-use dwa::{Clearance, DwaOutcome, DwaParams};
-use inflate::{Inflation, KernelCache};
+use clearance::Clearance;
+use dwa::DwaOutcome;
+use inflate::KernelCache;
+pub use params::PlannerParams;
 use route::{Route, RouteParams};
-
-/// Everything the planner is set by.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlannerParams {
-    /// The dynamic window's settings and the robot's limits and footprint.
-    pub dwa: DwaParams,
-    /// How obstacles are inflated.
-    pub inflation: Inflation,
-    /// Side of the inflation kernel, cells.
-    pub kernel_cells: usize,
-    /// Thickness of the adaptive kernel's line either side, cells.
-    pub padding_cells: usize,
-    /// Goal directions adaptive kernels are cached for, per half turn.
-    pub kernel_angles: usize,
-    /// Planning cost of a passable cell, 0–255.
-    pub passable_cost: u8,
-    /// Coarse cell of the route search, m; 0 turns the route off (straight-line progress, as in
-    /// the paper).
-    pub route_cell_m: f32,
-    /// Extra route cost per unit of planning cost.
-    pub route_cost_weight: f32,
-}
-
-impl Default for PlannerParams {
-    fn default() -> Self {
-        PlannerParams {
-            dwa: DwaParams::default(),
-            inflation: Inflation::Adaptive,
-            kernel_cells: 13,
-            padding_cells: 1,
-            kernel_angles: 36,
-            passable_cost: 51,
-            route_cell_m: 0.25,
-            route_cost_weight: 1.0,
-        }
-    }
-}
-
-impl PlannerParams {
-    /// The settings of `[planner]`, with the limits and footprint of `[robot]` and the passable
-    /// cost of `[mapper]`.
-    pub fn from_config(config: &Config) -> Self {
-        let (p, r) = (&config.planner, &config.robot);
-        PlannerParams {
-            dwa: DwaParams {
-                max_v: r.max_linear_mps,
-                max_omega: r.max_angular_rps,
-                max_accel: r.max_linear_accel,
-                max_alpha: r.max_angular_accel,
-                radius_m: r.radius_m,
-                margin_m: p.margin_m,
-                window_s: p.window_s,
-                dt_s: p.dt_s,
-                horizon_s: p.horizon_s,
-                v_samples: p.v_samples,
-                omega_samples: p.omega_samples,
-                goal_weight: p.goal_weight,
-                speed_weight: p.speed_weight,
-                obstacle_weight: p.obstacle_weight,
-            },
-            inflation: match p.inflation {
-                InflationConfig::Adaptive => Inflation::Adaptive,
-                InflationConfig::Uniform => Inflation::Uniform,
-                InflationConfig::None => Inflation::None,
-            },
-            kernel_cells: p.kernel_cells,
-            padding_cells: p.padding_cells,
-            kernel_angles: p.kernel_angles,
-            passable_cost: (config.mapper.passable_cost * 255.0).round() as u8,
-            route_cell_m: p.route_cell_m as f32,
-            route_cost_weight: p.route_cost_weight as f32,
-        }
-    }
-}
 
 /// Marks the cells of obstacles the foliage classifier confirmed solid (DESIGN §8: "obstacles
 /// the foliage classifier confirms are solid for the planner"), so a trunk or a rock hidden in
@@ -137,13 +68,10 @@ pub struct Planner {
 impl Planner {
     /// A planner with `params`.
     pub fn new(params: PlannerParams) -> Self {
+        let p = &params.planner;
         Planner {
+            kernels: KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles),
             params,
-            kernels: KernelCache::new(
-                params.kernel_cells,
-                params.padding_cells,
-                params.kernel_angles,
-            ),
             cost: Vec::new(),
             clear: Clearance::default(),
             route: Route::default(),
@@ -172,20 +100,20 @@ impl Planner {
         inflate::plan_cost(
             classes,
             grid,
-            self.kernels.get(p.inflation, goal.1.atan2(goal.0)),
+            self.kernels.get(p.planner.inflation, goal.1.atan2(goal.0)),
             p.passable_cost,
             &mut self.cost,
         );
         // the rollouts reach max_v · horizon; obstacles matter up to the footprint beyond
-        let reach = p.dwa.max_v * p.dwa.horizon_s + p.dwa.radius_m + p.dwa.margin_m;
+        let reach = p.reach_m();
         self.clear
             .compute(classes, grid, reach as f32 + 2.0 * grid.cell_m, 5.0);
-        let route = if p.route_cell_m > 0.0 {
+        let route = if p.planner.route_cell_m > 0.0 {
             self.route.build(
                 &RouteParams {
-                    cell_m: p.route_cell_m,
-                    radius_m: (p.dwa.radius_m + p.dwa.margin_m) as f32,
-                    cost_weight: p.route_cost_weight,
+                    cell_m: p.planner.route_cell_m as f32,
+                    radius_m: p.footprint_m() as f32,
+                    cost_weight: p.planner.route_cost_weight as f32,
                     settle_within_m: reach as f32,
                 },
                 grid,
@@ -197,16 +125,7 @@ impl Planner {
         } else {
             None
         };
-        dwa::plan(
-            &p.dwa,
-            grid,
-            &self.cost,
-            &self.clear,
-            v0,
-            omega0,
-            goal,
-            route,
-        )
+        dwa::plan(p, grid, &self.cost, &self.clear, v0, omega0, goal, route)
     }
 
     /// The planning cost of the last map (eq. 11), 0–255 per cell.

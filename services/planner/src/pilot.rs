@@ -30,49 +30,6 @@ use mimnav_shared::topics::{
 use crate::dwa::DwaOutcome;
 use crate::{Planner, PlannerParams, confirm_obstacles};
 
-/// The freshness rules and the command's validity, in ns.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PilotParams {
-    /// How long a command is valid after it is sent (`robot.command_validity_s`).
-    pub validity_ns: u64,
-    /// A map older than this is stale (`planner.map_max_age_s`).
-    pub map_max_age_ns: u64,
-    /// Odometry older than this is stale (`planner.odom_max_age_s`).
-    pub odom_max_age_ns: u64,
-    /// A goal older than this is dropped; 0: never (`planner.goal_max_age_s`).
-    pub goal_max_age_ns: u64,
-    /// A foliage verdict older than this is ignored (`planner.foliage_max_age_s`).
-    pub foliage_max_age_ns: u64,
-    /// Whether the foliage classifier's obstacles are solid for the planner
-    /// (`planner.use_foliage`).
-    pub use_foliage: bool,
-}
-
-fn ns(s: f64) -> u64 {
-    (s * 1e9) as u64
-}
-
-impl PilotParams {
-    /// The settings of `[planner]` and `robot.command_validity_s`.
-    pub fn from_config(config: &Config) -> Self {
-        let p = &config.planner;
-        PilotParams {
-            validity_ns: ns(config.robot.command_validity_s),
-            map_max_age_ns: ns(p.map_max_age_s),
-            odom_max_age_ns: ns(p.odom_max_age_s),
-            goal_max_age_ns: ns(p.goal_max_age_s),
-            foliage_max_age_ns: ns(p.foliage_max_age_s),
-            use_foliage: p.use_foliage,
-        }
-    }
-}
-
-impl Default for PilotParams {
-    fn default() -> Self {
-        PilotParams::from_config(&Config::default())
-    }
-}
-
 /// Why the robot is stopped for stale input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stale {
@@ -174,7 +131,6 @@ struct Foliage {
 #[derive(Debug)]
 pub struct Pilot {
     planner: Planner,
-    params: PilotParams,
     odom: Option<Odometry>,
     goal: Option<Goal>,
     foliage: Foliage,
@@ -184,11 +140,11 @@ pub struct Pilot {
 }
 
 impl Pilot {
-    /// A pilot planning with `planner` under the rules `params`.
-    pub fn new(planner: PlannerParams, params: PilotParams) -> Self {
+    /// A pilot planning with `params`, under its freshness rules (`planner.*_max_age_s`,
+    /// `planner.use_foliage`) and command validity (`robot.command_validity_s`).
+    pub fn new(params: PlannerParams) -> Self {
         Pilot {
-            planner: Planner::new(planner),
-            params,
+            planner: Planner::new(params),
             odom: None,
             goal: None,
             foliage: Foliage::default(),
@@ -200,15 +156,12 @@ impl Pilot {
 
     /// The pilot of the config's `[planner]` and `[robot]`.
     pub fn from_config(config: &Config) -> Self {
-        Pilot::new(
-            PlannerParams::from_config(config),
-            PilotParams::from_config(config),
-        )
+        Pilot::new(PlannerParams::from_config(config))
     }
 
-    /// The rules.
-    pub fn params(&self) -> &PilotParams {
-        &self.params
+    /// The settings: the planner's and the rules'.
+    pub fn params(&self) -> &PlannerParams {
+        self.planner.params()
     }
 
     /// The planner (its last cost map and route).
@@ -288,9 +241,11 @@ impl Pilot {
             );
         }
         self.last_map_ns = Some(now);
-        let p = self.params;
-        if p.goal_max_age_ns > 0
-            && (self.goal).is_some_and(|g| now.saturating_sub(g.stamp_mono_ns) > p.goal_max_age_ns)
+        let p = self.planner.params();
+        let (goal_max_age_ns, odom_max_age_ns) = (p.goal_max_age_ns(), p.odom_max_age_ns());
+        let (use_foliage, foliage_max_age_ns) = (p.planner.use_foliage, p.foliage_max_age_ns());
+        if goal_max_age_ns > 0
+            && (self.goal).is_some_and(|g| now.saturating_sub(g.stamp_mono_ns) > goal_max_age_ns)
         {
             self.goal = None;
         }
@@ -306,7 +261,7 @@ impl Pilot {
                     Some(header),
                 );
             }
-            Some(o) if now.saturating_sub(o.rx_mono_ns) > p.odom_max_age_ns => {
+            Some(o) if now.saturating_sub(o.rx_mono_ns) > odom_max_age_ns => {
                 return Decision::stop(
                     command_status::STALE_INPUT,
                     0,
@@ -331,9 +286,9 @@ impl Pilot {
         }
         // obstacles the foliage classifier confirms are solid (a trunk hidden in grass)
         let mut flags = 0;
-        if p.use_foliage
+        if use_foliage
             && let Some(fh) = &self.foliage.header
-            && now.saturating_sub(fh.rx_mono_ns) <= p.foliage_max_age_ns
+            && now.saturating_sub(fh.rx_mono_ns) <= foliage_max_age_ns
         {
             if fh.alarm != 0 {
                 flags |= command_flags::FOLIAGE_ALARM;
@@ -370,7 +325,7 @@ impl Pilot {
         let silent = deadline_missed
             || self
                 .last_map_ns
-                .is_none_or(|t| now.saturating_sub(t) > self.params.map_max_age_ns);
+                .is_none_or(|t| now.saturating_sub(t) > self.params().map_max_age_ns());
         silent.then(|| Decision::stop(command_status::STALE_INPUT, 0, Some(Stale::NoMap), None))
     }
 
@@ -383,7 +338,7 @@ impl Pilot {
             stamp_mono_ns: sent,
             source_stamp_ns: decision.source_stamp_ns,
             source_seq: decision.source_seq,
-            valid_until_mono_ns: sent.saturating_add(self.params.validity_ns),
+            valid_until_mono_ns: sent.saturating_add(self.params().command_validity_ns()),
             v: if finite { decision.v as f32 } else { 0.0 },
             omega: if finite { decision.omega as f32 } else { 0.0 },
             status: if finite {

@@ -25,7 +25,7 @@ use std::collections::BinaryHeap;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
-use crate::dwa::chamfer;
+use crate::clearance::chamfer;
 
 /// (Δrow, Δcol) of the 16 moves.
 const MOVES: [(i32, i32); 16] = [

@@ -26,7 +26,7 @@ fn main() {
                 continue;
             }
             let mut settings = SimSettings::default();
-            settings.lidar.physics.grass_blades = blades;
+            settings.sim.grass_blades = blades;
             time(
                 &path,
                 blades,

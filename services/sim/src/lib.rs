@@ -28,15 +28,14 @@ pub mod physics;
 pub mod truth;
 pub mod world;
 
-use mimnav_shared::config::{Config, SimReturnMode};
+use mimnav_shared::config::{Config, RobotProfile, SimConfig};
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry, return_mode};
+use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry};
 use mimnav_velodyne::packet::{BLOCKS, POSITION_PACKET_LEN};
 use mimnav_velodyne::revolution::TurnCutter;
 
-use crate::lidar::{LidarConfig, Vlp16};
-use crate::motion::{Base, Limits};
-use crate::physics::PhysicsParams;
+use crate::lidar::Vlp16;
+use crate::motion::Base;
 use crate::world::Scene;
 
 /// Source address of simulated packets in captures: the VLP-16's factory default.
@@ -98,70 +97,35 @@ pub struct Pose {
     pub yaw: f64,
 }
 
-/// Everything the simulation needs besides the world.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Everything the simulation needs besides the world: `[sim]` (the beam physics, the return
+/// mode, the goal tolerance), the robot of `[robot]` (the sensor's height, the footprint, the
+/// base's limits) and the rate the sensor is set to spin at (`velodyne.rpm`).
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimSettings {
-    /// The sensor.
-    pub lidar: LidarConfig,
-    /// The base's limits.
-    pub limits: Limits,
-    /// Robot footprint radius, m.
-    pub radius_m: f64,
-    /// The goal counts as reached within this distance, m.
-    pub goal_tolerance_m: f64,
+    /// `[sim]`.
+    pub sim: SimConfig,
+    /// `[robot]`.
+    pub robot: RobotProfile,
+    /// Revolutions per minute the sensor spins at (`velodyne.rpm`, the sensor's own setting).
+    pub rpm: f64,
 }
 
 impl SimSettings {
     /// Settings from the stack's config: the sensor is what `[velodyne]` says it is set to
     /// (`rpm`), mounted as `[robot]` says; physics and return mode from `[sim]`.
     pub fn from_config(config: &Config) -> Self {
-        let s = &config.sim;
-        let r = &config.robot;
         SimSettings {
-            lidar: LidarConfig {
-                rpm: config.velodyne.rpm,
-                return_mode: match s.return_mode {
-                    SimReturnMode::Dual => return_mode::DUAL,
-                    SimReturnMode::Strongest => return_mode::STRONGEST,
-                    SimReturnMode::Last => return_mode::LAST,
-                },
-                product: 0x22,
-                sensor_height_m: r.sensor_height_m,
-                mount: r.mount,
-                physics: PhysicsParams {
-                    range_noise_m: s.range_noise_m,
-                    intensity_noise: s.intensity_noise,
-                    glass_specular_rad: s.glass_specular_deg.to_radians(),
-                    max_range_m: 100.0,
-                    grass_blades: s.grass_blades,
-                },
-            },
-            limits: Limits {
-                max_linear_mps: r.max_linear_mps,
-                max_angular_rps: r.max_angular_rps,
-                max_linear_accel: r.max_linear_accel,
-                max_angular_accel: r.max_angular_accel,
-            },
-            radius_m: r.radius_m,
-            goal_tolerance_m: s.goal_tolerance_m,
+            sim: config.sim.clone(),
+            robot: config.robot.clone(),
+            rpm: config.velodyne.rpm,
         }
     }
 }
 
 impl Default for SimSettings {
-    /// A Turtlebot 2 with a dual-return VLP-16 at 600 rpm.
+    /// The documented defaults: a Turtlebot 2 with a dual-return VLP-16 at 600 rpm.
     fn default() -> Self {
-        SimSettings {
-            lidar: LidarConfig::default(),
-            limits: Limits {
-                max_linear_mps: 0.5,
-                max_angular_rps: 1.5,
-                max_linear_accel: 0.6,
-                max_angular_accel: 3.0,
-            },
-            radius_m: 0.2,
-            goal_tolerance_m: 0.3,
-        }
+        SimSettings::from_config(&Config::default())
     }
 }
 
@@ -265,7 +229,7 @@ impl Sim {
             yaw: scene.start[2],
         };
         Sim {
-            lidar: Vlp16::new(settings.lidar, seed, epoch_ns),
+            lidar: Vlp16::new(&settings, seed, epoch_ns),
             base: Base::at(start),
             scene,
             settings,
@@ -381,9 +345,9 @@ impl Sim {
         }
         let before = self.base;
         self.base
-            .step(self.cmd.0, self.cmd.1, dt, &self.settings.limits);
+            .step(self.cmd.0, self.cmd.1, dt, &self.settings.robot);
         let p = self.base.pose;
-        if let Some(i) = motion::contact(&self.scene, p.x, p.y, self.settings.radius_m) {
+        if let Some(i) = motion::contact(&self.scene, p.x, p.y, self.settings.robot.radius_m) {
             self.base = before;
             self.base.v = 0.0;
             self.base.omega = 0.0;
@@ -391,7 +355,7 @@ impl Sim {
             return;
         }
         self.path_length_m += (p.x - before.pose.x).hypot(p.y - before.pose.y);
-        if self.distance_to_goal() <= self.settings.goal_tolerance_m {
+        if self.distance_to_goal() <= self.settings.sim.goal_tolerance_m {
             self.outcome = Outcome::GoalReached;
         } else if self.elapsed_s() > self.scene.time_limit_s {
             self.outcome = Outcome::Timeout;

@@ -7,6 +7,7 @@
 //! azimuth is the azimuth of the block's first firing. The packet timestamp is its first firing,
 //! in µs past the top of the hour.
 
+use mimnav_shared::config::SimConfig;
 use mimnav_shared::pose::{LidarMount, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
 use mimnav_velodyne::packet::{
@@ -14,9 +15,12 @@ use mimnav_velodyne::packet::{
     encode_position_packet,
 };
 
-use crate::Pose;
-use crate::physics::{BeamCaster, Echo, PhysicsParams, dual_returns, last, strongest};
+use crate::physics::{BeamCaster, Echo, MAX_RANGE_M, dual_returns, last, strongest};
 use crate::world::Scene;
+use crate::{Pose, SimSettings};
+
+/// The product byte the simulated sensor writes: a VLP-16.
+const PRODUCT: u8 = 0x22;
 
 /// Duration of a block (two firing sequences), ns.
 pub const BLOCK_NS: u64 = 110_592;
@@ -25,40 +29,17 @@ pub const SEQUENCE_NS: u64 = 55_296;
 /// Delay between two lasers of a sequence, ns.
 pub const LASER_NS: u64 = 2_304;
 
-/// Settings of the simulated sensor.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LidarConfig {
-    /// Revolutions per minute (300–1200).
-    pub rpm: f64,
-    /// Return mode byte: 0x37, 0x38 or 0x39.
-    pub return_mode: u8,
-    /// Product byte (0x22 VLP-16).
-    pub product: u8,
-    /// Height of the optical centre above the ground, m.
-    pub sensor_height_m: f64,
-    /// Where the sensor sits on the robot (`robot.mount`): off the axis, yawed, tilted.
-    pub mount: LidarMount,
-    /// Beam physics.
-    pub physics: PhysicsParams,
-}
-
-impl Default for LidarConfig {
-    fn default() -> Self {
-        LidarConfig {
-            rpm: 600.0,
-            return_mode: return_mode::DUAL,
-            product: 0x22,
-            sensor_height_m: 0.5,
-            mount: LidarMount::default(),
-            physics: PhysicsParams::default(),
-        }
-    }
-}
-
 /// The sensor's state: its clock, its rotation and its random draws.
 #[derive(Debug)]
 pub struct Vlp16 {
-    config: LidarConfig,
+    /// Revolutions per minute (`velodyne.rpm`).
+    rpm: f64,
+    /// Return-mode byte (`sim.return_mode`).
+    return_mode: u8,
+    /// Height of the optical centre above the ground, m (`robot.sensor_height_m`).
+    sensor_height_m: f64,
+    /// The beam physics' settings (`[sim]`).
+    physics: SimConfig,
     rng: fastrand::Rng,
     caster: BeamCaster,
     candidates: Vec<usize>,
@@ -66,8 +47,24 @@ pub struct Vlp16 {
     sin_elev: [f64; LASERS],
     epoch_ns: u64,
     elapsed_ns: u64,
+    /// Where the sensor sits on the robot (`robot.mount`).
+    mount: LidarMount,
     /// The mount's roll and pitch (Ry·Rx), when the sensor is tilted.
     tilt: Option<[[f64; 3]; 3]>,
+}
+
+/// The rotation of a mount's roll and pitch (Ry·Rx), or `None` for a level sensor.
+fn tilt(mount: &LidarMount) -> Option<[[f64; 3]; 3]> {
+    (mount.roll_deg != 0.0 || mount.pitch_deg != 0.0).then(|| {
+        let level = LidarMount {
+            yaw_deg: 0.0,
+            x_m: 0.0,
+            y_m: 0.0,
+            ..*mount
+        };
+        let m = level.isometry().rotation.to_rotation_matrix();
+        std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
+    })
 }
 
 /// How far off a beam may pass an object's bounding circle and still be tested: covers the
@@ -77,7 +74,7 @@ const PREFILTER_MARGIN_M: f64 = 0.05;
 impl Vlp16 {
     /// A sensor whose clock starts at `epoch_ns` (ns since the Unix epoch) at azimuth 0, with
     /// random draws seeded by `seed`.
-    pub fn new(config: LidarConfig, seed: u64, epoch_ns: u64) -> Self {
+    pub fn new(settings: &SimSettings, seed: u64, epoch_ns: u64) -> Self {
         let mut cos_elev = [0.0; LASERS];
         let mut sin_elev = [0.0; LASERS];
         for (i, e) in VLP16_ELEVATION_DEG.iter().enumerate() {
@@ -86,6 +83,10 @@ impl Vlp16 {
             sin_elev[i] = r.sin();
         }
         Vlp16 {
+            rpm: settings.rpm,
+            return_mode: settings.sim.return_mode.byte(),
+            sensor_height_m: settings.robot.sensor_height_m,
+            physics: settings.sim.clone(),
             rng: fastrand::Rng::with_seed(seed),
             // the grass is drawn apart from the per-beam noise
             caster: BeamCaster::new(seed ^ 0x6772_6173_735f_6669),
@@ -94,24 +95,15 @@ impl Vlp16 {
             sin_elev,
             epoch_ns,
             elapsed_ns: 0,
-            tilt: (config.mount.roll_deg != 0.0 || config.mount.pitch_deg != 0.0).then(|| {
-                let level = LidarMount {
-                    yaw_deg: 0.0,
-                    x_m: 0.0,
-                    y_m: 0.0,
-                    ..config.mount
-                };
-                let m = level.isometry().rotation.to_rotation_matrix();
-                std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]))
-            }),
-            config,
+            mount: settings.robot.mount,
+            tilt: tilt(&settings.robot.mount),
         }
     }
 
     /// The sensor's pose on the ground plane when the robot's base is at `base`: the mount's
     /// offset and yaw composed onto the base's pose.
     pub fn sensor_pose(&self, base: Pose) -> Pose {
-        let m = &self.config.mount;
+        let m = &self.mount;
         if m.x_m == 0.0 && m.y_m == 0.0 && m.yaw_deg == 0.0 {
             return base;
         }
@@ -123,14 +115,9 @@ impl Vlp16 {
         }
     }
 
-    /// The settings.
-    pub fn config(&self) -> &LidarConfig {
-        &self.config
-    }
-
     /// Time one data packet covers, ns.
     pub fn packet_period_ns(&self) -> u64 {
-        if self.config.return_mode == return_mode::DUAL {
+        if self.return_mode == return_mode::DUAL {
             6 * BLOCK_NS
         } else {
             12 * BLOCK_NS
@@ -144,7 +131,7 @@ impl Vlp16 {
 
     /// Azimuth at `elapsed_ns` after the epoch, degrees clockwise from forward in [0, 360).
     fn azimuth_deg(&self, elapsed_ns: u64) -> f64 {
-        let deg_per_ns = self.config.rpm * 6.0 * 1e-9;
+        let deg_per_ns = self.rpm * 6.0 * 1e-9;
         (elapsed_ns as f64 * deg_per_ns).rem_euclid(360.0)
     }
 
@@ -152,7 +139,7 @@ impl Vlp16 {
     /// on by one packet.
     pub fn next_packet(&mut self, scene: &Scene, base: Pose) -> [u8; DATA_PACKET_LEN] {
         let pose = self.sensor_pose(base);
-        let dual = self.config.return_mode == return_mode::DUAL;
+        let dual = self.return_mode == return_mode::DUAL;
         let t0 = self.elapsed_ns;
         let mut blocks = [(0u16, [(0u16, 0u8); CHANNELS]); BLOCKS];
         let firing_blocks = if dual { BLOCKS / 2 } else { BLOCKS };
@@ -180,7 +167,7 @@ impl Vlp16 {
         }
         let ts_us = ((self.epoch_ns + t0) / 1000 % 3_600_000_000) as u32;
         self.elapsed_ns += self.packet_period_ns();
-        encode_data_packet(ts_us, self.config.return_mode, self.config.product, &blocks)
+        encode_data_packet(ts_us, self.return_mode, PRODUCT, &blocks)
     }
 
     /// The beams `laser` fires in the next packet from `pose`, in firing order: the very rays
@@ -191,13 +178,13 @@ impl Vlp16 {
         let pose = self.sensor_pose(base);
         out.clear();
         let laser = laser % LASERS;
-        let dual = self.config.return_mode == return_mode::DUAL;
+        let dual = self.return_mode == return_mode::DUAL;
         let firing_blocks = if dual { BLOCKS / 2 } else { BLOCKS };
         for k in 0..firing_blocks {
             for seq in 0..2 {
                 let az_deg = self.azimuth_deg(firing_ns(self.elapsed_ns, k, seq, laser));
                 out.push(Beam {
-                    origin: [pose.x, pose.y, self.config.sensor_height_m],
+                    origin: [pose.x, pose.y, self.sensor_height_m],
                     dir: self.direction(pose, laser, az_deg),
                     azimuth_deg: az_deg,
                 });
@@ -244,7 +231,7 @@ impl Vlp16 {
             let (dx, dy) = (c[0] - pose.x, c[1] - pose.y);
             let along = dx * ux + dy * uy;
             let r = r + PREFILTER_MARGIN_M;
-            if along < -r || along > self.config.physics.max_range_m + r {
+            if along < -r || along > MAX_RANGE_M + r {
                 continue;
             }
             let across = (dx * uy - dy * ux).abs();
@@ -264,14 +251,14 @@ impl Vlp16 {
         elapsed_ns: u64,
     ) -> ((u16, u8), (u16, u8)) {
         let d = self.direction(pose, laser, az_deg);
-        let o = [pose.x, pose.y, self.config.sensor_height_m];
+        let o = [pose.x, pose.y, self.sensor_height_m];
         let echoes = self.caster.cast(
             scene,
             &self.candidates,
             o,
             d,
             elapsed_ns as f64 * 1e-9,
-            &self.config.physics,
+            &self.physics,
             &mut self.rng,
         );
         let rec = |e: Option<Echo>| match e {
@@ -281,7 +268,7 @@ impl Vlp16 {
             ),
             _ => (0, 0),
         };
-        match self.config.return_mode {
+        match self.return_mode {
             return_mode::DUAL => match dual_returns(echoes) {
                 Some((l, s)) => (rec(Some(l)), rec(Some(s))),
                 None => ((0, 0), (0, 0)),

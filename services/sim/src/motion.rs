@@ -1,22 +1,11 @@
 //! The robot base: a unicycle that follows velocity commands within its speed and acceleration
 //! limits, and the collision check against the scene.
 
+use mimnav_shared::config::RobotProfile;
+
 use crate::Pose;
 use crate::geometry::footprint_distance;
 use crate::world::Scene;
-
-/// Speed and acceleration limits of a base (from the robot profile).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Limits {
-    /// Largest |v|, m/s.
-    pub max_linear_mps: f64,
-    /// Largest |ω|, rad/s.
-    pub max_angular_rps: f64,
-    /// Largest |dv/dt|, m/s².
-    pub max_linear_accel: f64,
-    /// Largest |dω/dt|, rad/s².
-    pub max_angular_accel: f64,
-}
 
 /// Pose and velocity of the base.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,7 +30,7 @@ impl Base {
 
     /// Moves for `dt` seconds towards the commanded (v, ω), each clamped to the limits and
     /// reached no faster than the accelerations allow.
-    pub fn step(&mut self, cmd_v: f64, cmd_omega: f64, dt: f64, lim: &Limits) {
+    pub fn step(&mut self, cmd_v: f64, cmd_omega: f64, dt: f64, lim: &RobotProfile) {
         let target_v = cmd_v.clamp(-lim.max_linear_mps, lim.max_linear_mps);
         let target_w = cmd_omega.clamp(-lim.max_angular_rps, lim.max_angular_rps);
         let dv = (target_v - self.v).clamp(-lim.max_linear_accel * dt, lim.max_linear_accel * dt);
@@ -87,7 +76,7 @@ impl WaypointDriver {
     }
 
     /// The (v, ω) command for `pose` within `lim`.
-    pub fn command(&mut self, pose: Pose, lim: &Limits) -> (f64, f64) {
+    pub fn command(&mut self, pose: Pose, lim: &RobotProfile) -> (f64, f64) {
         while let Some(w) = self.waypoints.get(self.next) {
             if (w[0] - pose.x).hypot(w[1] - pose.y) > self.tolerance_m {
                 break;
@@ -132,24 +121,29 @@ pub fn contact(scene: &Scene, x: f64, y: f64, radius: f64) -> Option<usize> {
 mod tests {
     use super::*;
 
-    const LIM: Limits = Limits {
-        max_linear_mps: 0.5,
-        max_angular_rps: 1.0,
-        max_linear_accel: 0.5,
-        max_angular_accel: 2.0,
-    };
+    /// A base with round limits.
+    fn lim() -> RobotProfile {
+        RobotProfile {
+            max_linear_mps: 0.5,
+            max_angular_rps: 1.0,
+            max_linear_accel: 0.5,
+            max_angular_accel: 2.0,
+            ..RobotProfile::default()
+        }
+    }
 
     #[test]
     fn accelerates_within_limits_and_drives_straight() {
+        let lim = lim();
         let mut b = Base::at(Pose {
             x: 0.0,
             y: 0.0,
             yaw: 0.0,
         });
-        b.step(2.0, 0.0, 0.5, &LIM);
+        b.step(2.0, 0.0, 0.5, &lim);
         assert!((b.v - 0.25).abs() < 1e-9, "accel-limited: {}", b.v);
         for _ in 0..100 {
-            b.step(2.0, 0.0, 0.1, &LIM);
+            b.step(2.0, 0.0, 0.1, &lim);
         }
         assert!((b.v - 0.5).abs() < 1e-9, "speed-limited: {}", b.v);
         assert!(b.pose.y.abs() < 1e-9 && b.pose.x > 4.0);
@@ -157,13 +151,14 @@ mod tests {
 
     #[test]
     fn turns_in_place() {
+        let lim = lim();
         let mut b = Base::at(Pose {
             x: 1.0,
             y: 1.0,
             yaw: 0.0,
         });
         for _ in 0..1000 {
-            b.step(0.0, 1.0, 0.001, &LIM);
+            b.step(0.0, 1.0, 0.001, &lim);
         }
         assert!((b.pose.x - 1.0).abs() < 1e-9 && (b.pose.y - 1.0).abs() < 1e-9);
         // 0.5 s to reach 1 rad/s (0.25 rad), then 0.5 s at 1 rad/s

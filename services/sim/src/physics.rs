@@ -3,7 +3,7 @@
 //! A beam walks through the things it meets in order of distance, carrying the fraction `f` of
 //! its energy still going forward:
 //! - an opaque surface returns `reflectivity · cos(incidence) · f` and ends the beam;
-//! - glass returns only within `glass_specular` of normal incidence, then as a sharp spike
+//! - glass returns only within `sim.glass_specular_deg` of normal incidence, then as a sharp spike
 //!   (120 to 255, highest at normal incidence, in the sensor's retro-reflector range) and passes
 //!   70 % on; otherwise it passes 92 % on and returns nothing;
 //! - a curtain is hit with probability `1 − (1 − coverage)^(1 / cos(incidence))`; a hit strand
@@ -12,7 +12,7 @@
 //! - grass and bushes are volumes: blade hits come at exponentially distributed distances
 //!   (`density` per metre), each intercepting 10–40 % of the beam (a blade is thinner than the
 //!   beam's footprint), drawn for each beam on its own;
-//! - or, with [`PhysicsParams::grass_blades`], grass is a field of blades standing in the ground
+//! - or, with `sim.grass_blades`, grass is a field of blades standing in the ground
 //!   ([`crate::blades`]): the beam meets the blades its footprint really overlaps, each
 //!   intercepting the share it covers, so neighbouring beams meet the same blades;
 //! - the beam ends when less than 5 % of it is left.
@@ -22,37 +22,14 @@
 //! than 1 reflectivity unit are not detected. The sensor reports the last echo and
 //! the strongest one (the second strongest when the last is also the strongest).
 
+use mimnav_shared::config::SimConfig;
+
 use crate::blades::{BladeField, NearBlade, beam_width, intercept as blade_intercept};
 use crate::geometry::{Hit, intersect};
 use crate::world::{Material, Object, Scene, Shape};
 
-/// Tunable physics.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PhysicsParams {
-    /// Standard deviation of the range noise of solid surfaces, m.
-    pub range_noise_m: f64,
-    /// Standard deviation of the intensity noise.
-    pub intensity_noise: f64,
-    /// Glass returns only within this angle of normal incidence, rad.
-    pub glass_specular_rad: f64,
-    /// Farthest range the sensor reports, m.
-    pub max_range_m: f64,
-    /// Grass as a field of blades standing in the ground, which neighbouring beams meet alike
-    /// ([`crate::blades`]); otherwise each beam draws its own blades.
-    pub grass_blades: bool,
-}
-
-impl Default for PhysicsParams {
-    fn default() -> Self {
-        PhysicsParams {
-            range_noise_m: 0.015,
-            intensity_noise: 1.5,
-            glass_specular_rad: 3f64.to_radians(),
-            max_range_m: 100.0,
-            grass_blades: false,
-        }
-    }
-}
+/// Farthest range the sensor reports, m.
+pub const MAX_RANGE_M: f64 = 100.0;
 
 /// One echo of a beam.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -184,9 +161,10 @@ impl BeamCaster {
         o: [f64; 3],
         d: [f64; 3],
         time_s: f64,
-        params: &PhysicsParams,
+        params: &SimConfig,
         rng: &mut fastrand::Rng,
     ) -> &[Echo] {
+        let glass_specular_rad = params.glass_specular_deg.to_radians();
         self.events.clear();
         self.echoes.clear();
         for &i in candidates {
@@ -271,7 +249,7 @@ impl BeamCaster {
         self.events.sort_unstable_by(|a, b| a.t().total_cmp(&b.t()));
         let mut f = 1.0;
         for ev in &self.events {
-            if ev.t() > params.max_range_m {
+            if ev.t() > MAX_RANGE_M {
                 break;
             }
             match *ev {
@@ -292,8 +270,8 @@ impl BeamCaster {
                 }
                 Event::Glass { t, cos } => {
                     let angle = cos.clamp(-1.0, 1.0).acos();
-                    if angle < params.glass_specular_rad {
-                        let spike = 120.0 + 135.0 * (1.0 - angle / params.glass_specular_rad);
+                    if angle < glass_specular_rad {
+                        let spike = 120.0 + 135.0 * (1.0 - angle / glass_specular_rad);
                         let range = t + 0.3 * params.range_noise_m * normal(rng);
                         self.echoes.push(Echo {
                             range,

@@ -37,6 +37,7 @@
 
 use std::path::Path;
 
+use mimnav_shared::config::{Checks, Invalid};
 use mimnav_shared::topics::cell_class;
 use serde::Deserialize;
 
@@ -523,22 +524,17 @@ impl WorldFile {
             path: source.into(),
             message: e.to_string().trim_end().into(),
         })?;
-        w.validate().map_err(|message| WorldError {
+        w.validate().map_err(|e| WorldError {
             path: source.into(),
-            message,
+            message: e.to_string(),
         })?;
         Ok(w)
     }
 
-    fn validate(&self) -> Result<(), String> {
-        let mut bad = Vec::new();
-        let mut pos = |what: String, v: f64, lo: f64, hi: f64| {
-            if !(v >= lo && v <= hi) {
-                bad.push(format!(
-                    "{what} = {v} is out of range: allowed {lo} to {hi}"
-                ));
-            }
-        };
+    /// Every value refused, each naming its key and what is allowed.
+    fn validate(&self) -> Result<(), Invalid> {
+        let mut bad = Checks::default();
+        let mut pos = |what: String, v: f64, lo: f64, hi: f64| bad.check(what, v, lo, hi);
         pos("time_limit_s".into(), self.time_limit_s, 1.0, 3600.0);
         pos(
             "ground.reflectivity".into(),
@@ -632,17 +628,14 @@ impl WorldFile {
             .chain(self.curtain.iter().map(|c| (c.from, c.to)))
             .enumerate()
         {
-            if (a[0] - b[0]).hypot(a[1] - b[1]) < 0.01 {
-                bad.push(format!(
-                    "sheet {i} (wall, glass or curtain) is shorter than 1 cm: from = to"
-                ));
-            }
+            let too_short = (a[0] - b[0]).hypot(a[1] - b[1]) < 0.01;
+            bad.require(
+                !too_short,
+                format!("sheet {i}"),
+                format!("sheet {i} (wall, glass or curtain) is shorter than 1 cm: from = to"),
+            );
         }
-        if bad.is_empty() {
-            Ok(())
-        } else {
-            Err(bad.join("; "))
-        }
+        bad.finish()
     }
 
     /// Compiles the world into a [`Scene`].

@@ -356,7 +356,7 @@ fn ground_truth_marks_each_class_where_it_stands_in_the_robot_frame() {
 fn wall_through_grass(grass_blades: bool) -> (f64, f64) {
     let w = WorldFile::parse(GRASS_THEN_WALL, "test world").expect("valid world");
     let mut settings = SimSettings::default();
-    settings.lidar.physics.grass_blades = grass_blades;
+    settings.sim.grass_blades = grass_blades;
     let mut s = Sim::new(w.compile(), settings, 5, DEFAULT_EPOCH_NS);
     let mut reached = Vec::new();
     for rev in revolutions(&mut s, 3).iter().skip(1) {

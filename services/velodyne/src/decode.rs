@@ -13,6 +13,7 @@
 //!   first, then the strongest, each only if non-zero;
 //! - geometry: x = d·cos ω·cos α, y = −d·cos ω·sin α, z = d·sin ω (ω elevation, α azimuth).
 
+use mimnav_shared::config::VelodyneConfig;
 use mimnav_shared::topics::{Point, ScanReturn, return_mode, return_type};
 
 use crate::packet::{
@@ -25,41 +26,8 @@ pub const SEQUENCE_NS: u32 = 55_296;
 /// Delay between two lasers of a sequence, ns.
 pub const LASER_NS: u32 = 2_304;
 
-/// Which return of a dual pair a planar scan takes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ScanReturnSelect {
-    /// The strongest return (odd blocks in dual mode).
-    Strongest,
-    /// The last return (even blocks in dual mode).
-    Last,
-}
-
-/// Settings of the decoder.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DecoderConfig {
-    /// Returns nearer than this are dropped, metres.
-    pub min_range_m: f32,
-    /// Returns farther than this are dropped, metres.
-    pub max_range_m: f32,
-    /// Decode product byte 0x21 as a VLP-16 (early firmware).
-    pub accept_product_0x21: bool,
-    /// Laser id (0–15) extracted as the planar scan, or `None` for no scan.
-    pub scan_laser: Option<u8>,
-    /// Which return the planar scan takes in dual mode.
-    pub scan_return: ScanReturnSelect,
-}
-
-impl Default for DecoderConfig {
-    fn default() -> Self {
-        Self {
-            min_range_m: 0.1,
-            max_range_m: 200.0,
-            accept_product_0x21: false,
-            scan_laser: Some(14),
-            scan_return: ScanReturnSelect::Strongest,
-        }
-    }
-}
+/// Which return of a dual pair a planar scan takes: `velodyne.scan_return`.
+pub use mimnav_shared::config::ScanReturnSelect;
 
 /// Per-laser geometry of one product.
 #[derive(Debug, Clone)]
@@ -86,7 +54,10 @@ impl LaserTable {
 /// Stateless packet decoder with precomputed tables.
 #[derive(Debug, Clone)]
 pub struct Decoder {
-    config: DecoderConfig,
+    /// `[velodyne]`: the range limits, the product rule and the planar scan.
+    config: VelodyneConfig,
+    /// `velodyne.min_range_m` and `max_range_m` as the distances are compared (f32).
+    range_m: (f32, f32),
     vlp16: LaserTable,
     hi_res: LaserTable,
     /// cos and sin of every azimuth in 0.01° steps.
@@ -111,8 +82,8 @@ pub struct PacketCounts {
 }
 
 impl Decoder {
-    /// Builds the tables for `config`.
-    pub fn new(config: DecoderConfig) -> Self {
+    /// Builds the tables for the `[velodyne]` settings `config`.
+    pub fn new(config: &VelodyneConfig) -> Self {
         let mut cos_az = Vec::with_capacity(36000);
         let mut sin_az = Vec::with_capacity(36000);
         for a in 0..36000u32 {
@@ -127,7 +98,8 @@ impl Decoder {
             }
         }
         Decoder {
-            config,
+            range_m: (config.min_range_m as f32, config.max_range_m as f32),
+            config: config.clone(),
             vlp16: LaserTable::new(&VLP16_ELEVATION_DEG),
             hi_res: LaserTable::new(&PUCK_HI_RES_ELEVATION_DEG),
             cos_az,
@@ -137,7 +109,7 @@ impl Decoder {
     }
 
     /// The settings this decoder was built with.
-    pub fn config(&self) -> &DecoderConfig {
+    pub fn config(&self) -> &VelodyneConfig {
         &self.config
     }
 
@@ -232,7 +204,7 @@ impl Decoder {
                     }
                     scan_pick = (d_a, i_a, single_type);
                 }
-                if self.config.scan_laser == Some(laser as u8) {
+                if usize::from(self.config.scan_laser) == laser {
                     scan.push(self.scan_return(table, scan_pick, laser, az));
                 }
             }
@@ -253,7 +225,7 @@ impl Decoder {
         time_offset_ns: u32,
     ) -> Option<Point> {
         let d = f32::from(raw) * DISTANCE_UNIT_M;
-        if !(d >= self.config.min_range_m && d <= self.config.max_range_m) {
+        if !(d >= self.range_m.0 && d <= self.range_m.1) {
             return None;
         }
         let xy = d * table.cos_elev[laser];
@@ -284,7 +256,7 @@ impl Decoder {
             angle += 2.0 * std::f32::consts::PI;
         }
         let d = f32::from(raw) * DISTANCE_UNIT_M;
-        if raw == 0 || !(d >= self.config.min_range_m && d <= self.config.max_range_m) {
+        if raw == 0 || !(d >= self.range_m.0 && d <= self.range_m.1) {
             return ScanReturn {
                 angle_rad: angle,
                 ..ScanReturn::default()

@@ -16,7 +16,7 @@ use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
 use mimnav_velodyne::driver::Driver;
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
-use mimnav_velodyne::udp::{UdpConfig, UdpSource};
+use mimnav_velodyne::udp::UdpSource;
 
 /// The VLP-16 driver: decodes a live sensor (UDP) or replays a capture, and publishes
 /// revolutions on lidar/points and lidar/scan2d.
@@ -84,8 +84,12 @@ fn run(config: &Config) -> Result<()> {
     let VelodyneInput::Udp = v.input else {
         return wired::replay(config, &svc, &mut wired, &mut health, interval);
     };
-    let udp = UdpConfig::from_config(v);
-    let mut source = UdpSource::bind(&udp).with_context(|| format!("cannot bind UDP {udp:?}"))?;
+    let mut source = UdpSource::bind(v).with_context(|| {
+        format!(
+            "cannot bind UDP {} (data port {}, position port {})",
+            v.bind_address, v.data_port, v.position_port
+        )
+    })?;
     let fds: Vec<SocketFd> = source
         .fds()
         .into_iter()

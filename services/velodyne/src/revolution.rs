@@ -11,21 +11,21 @@
 //! configured capacity, or when the return mode or product changes; the header's `cut_reason`
 //! says which.
 
-use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason, return_type};
+use mimnav_shared::config::VelodyneConfig;
+use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason};
 
-use crate::decode::{Decoder, DecoderConfig, PacketCounts, ScanReturnSelect};
+use crate::decode::{Decoder, PacketCounts};
 use crate::packet::{BLOCKS, CHANNELS, DataPacket, DecodeError};
 
 /// Nanoseconds in an hour: the period of the sensor's timestamp.
 const HOUR_NS: u64 = 3_600_000_000_000;
 
-/// Settings of the assembler.
+/// Settings of the assembler: the `[velodyne]` section (the decoder's range limits, the product
+/// rule, the planar scan, the cut azimuth) and the two limits derived from the rotation rate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AssemblerConfig {
-    /// Decoder settings.
-    pub decoder: DecoderConfig,
-    /// Azimuth where revolutions are cut, 0.01°; `None` cuts wherever a full turn completes.
-    pub cut_azimuth_cdeg: Option<u16>,
+    /// `[velodyne]`.
+    pub velodyne: VelodyneConfig,
     /// Longest time a revolution may span (host clock and sensor clock), ns.
     pub max_duration_ns: u64,
     /// Most points a revolution may hold; the capacity of the published payload.
@@ -33,10 +33,11 @@ pub struct AssemblerConfig {
 }
 
 impl Default for AssemblerConfig {
+    /// `[velodyne]`'s defaults, with limits sized for the slowest rate (300 rpm, 1.5 turns), so
+    /// a stream of any rate is assembled whole.
     fn default() -> Self {
         Self {
-            decoder: DecoderConfig::default(),
-            cut_azimuth_cdeg: None,
+            velodyne: VelodyneConfig::default(),
             max_duration_ns: 300_000_000,
             max_points: max_points_per_revolution(300.0, 0.3),
         }
@@ -47,26 +48,18 @@ impl AssemblerConfig {
     /// Settings from the stack's config: a revolution may last up to 1.5 turns at
     /// `velodyne.rpm` before it is cut, and the capacity covers that in dual-return mode.
     pub fn from_config(config: &mimnav_shared::config::Config) -> Self {
-        use mimnav_shared::config::ScanReturnConfig;
         let v = &config.velodyne;
         let max_duration_s = 1.5 * 60.0 / v.rpm;
         AssemblerConfig {
-            decoder: DecoderConfig {
-                min_range_m: v.min_range_m as f32,
-                max_range_m: v.max_range_m as f32,
-                accept_product_0x21: v.accept_product_0x21,
-                scan_laser: Some(v.scan_laser),
-                scan_return: match v.scan_return {
-                    ScanReturnConfig::Strongest => ScanReturnSelect::Strongest,
-                    ScanReturnConfig::Last => ScanReturnSelect::Last,
-                },
-            },
-            cut_azimuth_cdeg: v
-                .cut_azimuth_deg
-                .map(|d| (d * 100.0).round() as u16 % 36000),
+            velodyne: v.clone(),
             max_duration_ns: (max_duration_s * 1e9) as u64,
             max_points: max_points_per_revolution(v.rpm, max_duration_s),
         }
+    }
+
+    /// `velodyne.cut_azimuth_deg` in the packets' unit, 0.01°.
+    pub fn cut_azimuth_cdeg(&self) -> Option<u16> {
+        (self.velodyne.cut_azimuth_deg).map(|d| (d * 100.0).round() as u16 % 36000)
     }
 }
 
@@ -197,13 +190,13 @@ pub struct Assembler {
 impl Assembler {
     /// A new assembler; the first revolution gets sequence number 0.
     pub fn new(config: AssemblerConfig) -> Self {
-        let decoder = Decoder::new(config.decoder.clone());
+        let decoder = Decoder::new(&config.velodyne);
         let mut cur = Revolution::default();
         cur.points.reserve(config.max_points);
         let mut out = Revolution::default();
         out.points.reserve(config.max_points);
         Assembler {
-            cutter: TurnCutter::new(config.cut_azimuth_cdeg),
+            cutter: TurnCutter::new(config.cut_azimuth_cdeg()),
             config,
             decoder,
             cur,
@@ -233,7 +226,7 @@ impl Assembler {
         host_ns: u64,
         rx_mono_ns: u64,
     ) -> Result<Option<&Revolution>, DecodeError> {
-        let pkt = DataPacket::parse(bytes, self.config.decoder.accept_product_0x21)?;
+        let pkt = DataPacket::parse(bytes, self.config.velodyne.accept_product_0x21)?;
         let mut completed = false;
         if !self.cur.is_empty()
             && let Some(reason) = self.early_cut(&pkt, host_ns)
@@ -322,21 +315,15 @@ impl Assembler {
         out.header.seq = self.next_seq;
         out.header.cut_reason = reason;
         self.next_seq += 1;
-        let dc = &self.config.decoder;
+        let v = &self.config.velodyne;
         out.scan_header = ScanHeader {
             seq: out.header.seq,
             stamp_ns: out.header.stamp_ns,
             rx_mono_ns: out.header.rx_mono_ns,
             count: out.scan.len() as u32,
-            elevation_rad: dc
-                .scan_laser
-                .map(|l| Decoder::elevation_rad(out.header.product, usize::from(l)))
-                .unwrap_or(0.0),
-            laser_id: dc.scan_laser.unwrap_or(0),
-            return_select: match dc.scan_return {
-                ScanReturnSelect::Strongest => return_type::STRONGEST,
-                ScanReturnSelect::Last => return_type::LAST,
-            },
+            elevation_rad: Decoder::elevation_rad(out.header.product, usize::from(v.scan_laser)),
+            laser_id: v.scan_laser,
+            return_select: v.scan_return.return_type(),
             reserved: [0; 6],
         };
         if reason != cut_reason::AZIMUTH {

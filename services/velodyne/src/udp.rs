@@ -5,34 +5,7 @@ use std::io;
 use std::net::{IpAddr, SocketAddr, UdpSocket};
 use std::os::fd::{AsRawFd, RawFd};
 
-/// Settings of the UDP source.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UdpConfig {
-    /// Local address to bind (0.0.0.0 for every interface).
-    pub bind_address: IpAddr,
-    /// Port of the data packets.
-    pub data_port: u16,
-    /// Port of the position packets, or `None` not to listen for them.
-    pub position_port: Option<u16>,
-    /// Accept datagrams from this sender only.
-    pub allowed_source: Option<IpAddr>,
-    /// Receive buffer asked of the kernel for the data socket, bytes (the kernel may grant less:
-    /// `net.core.rmem_max`).
-    pub recv_buffer_bytes: usize,
-}
-
-impl UdpConfig {
-    /// The `[velodyne]` settings of the socket.
-    pub fn from_config(v: &mimnav_shared::config::VelodyneConfig) -> Self {
-        UdpConfig {
-            bind_address: v.bind_address,
-            data_port: v.data_port,
-            position_port: (v.position_port != 0).then_some(v.position_port),
-            allowed_source: v.allowed_source,
-            recv_buffer_bytes: v.recv_buffer_bytes,
-        }
-    }
-}
+use mimnav_shared::config::VelodyneConfig;
 
 /// Which socket a datagram came in on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,11 +40,22 @@ impl UdpSource {
     /// Binds the sockets, non-blocking: the caller waits for readiness on [`UdpSource::fds`]
     /// (the service attaches them to its WaitSet) and then drains them with
     /// [`UdpSource::recv`].
-    pub fn bind(config: &UdpConfig) -> io::Result<Self> {
+    ///
+    /// The sockets are those of `[velodyne]`: `bind_address`, `data_port`, `position_port` (0: not
+    /// listened for), `allowed_source` and `recv_buffer_bytes` (the kernel may grant less:
+    /// `net.core.rmem_max`).
+    pub fn bind(config: &VelodyneConfig) -> io::Result<Self> {
+        let position_port = (config.position_port != 0).then_some(config.position_port);
+        Self::bind_ports(config, position_port)
+    }
+
+    /// [`UdpSource::bind`] with the position socket on `position_port` (`Some(0)`: a port the
+    /// system picks, which `[velodyne]` cannot say).
+    fn bind_ports(config: &VelodyneConfig, position_port: Option<u16>) -> io::Result<Self> {
         let data = UdpSocket::bind((config.bind_address, config.data_port))?;
         data.set_nonblocking(true)?;
         set_recv_buffer(&data, config.recv_buffer_bytes)?;
-        let position = match config.position_port {
+        let position = match position_port {
             Some(p) => {
                 let s = UdpSocket::bind((config.bind_address, p))?;
                 s.set_nonblocking(true)?;
@@ -95,7 +79,7 @@ impl UdpSource {
         }
         tracing::info!(
             data = %source.data_addr().map(|a| a.to_string()).unwrap_or_default(),
-            position_port = ?config.position_port,
+            position_port = ?position_port,
             allowed_source = ?config.allowed_source,
             "listening for VLP-16 datagrams"
         );
@@ -227,14 +211,14 @@ mod tests {
 
     #[test]
     fn receives_on_both_ports_and_filters_the_sender() {
-        let cfg = UdpConfig {
+        let cfg = VelodyneConfig {
             bind_address: IpAddr::from([127, 0, 0, 1]),
             data_port: 0,
-            position_port: Some(0),
             allowed_source: Some(IpAddr::from([127, 0, 0, 1])),
             recv_buffer_bytes: 1 << 20,
+            ..VelodyneConfig::default()
         };
-        let mut src = UdpSource::bind(&cfg).expect("bind");
+        let mut src = UdpSource::bind_ports(&cfg, Some(0)).expect("bind");
         let data_addr = src.data_addr().expect("addr");
         let pos_addr = src.position_addr().expect("pos").expect("addr");
         let tx = UdpSocket::bind("127.0.0.1:0").expect("tx");

@@ -10,9 +10,9 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
+use mimnav_shared::config::VelodyneConfig;
 use mimnav_shared::topics::Point;
 use mimnav_velodyne::capture::CaptureReader;
-use mimnav_velodyne::decode::DecoderConfig;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig, max_points_per_revolution};
 
 fn data_dir() -> Option<PathBuf> {
@@ -91,13 +91,12 @@ struct Frame {
 
 fn decode_capture(path: &Path, accept_0x21: bool) -> (Vec<Frame>, u64) {
     let config = AssemblerConfig {
-        decoder: DecoderConfig {
+        velodyne: VelodyneConfig {
             min_range_m: 0.1,
             max_range_m: 200.0,
             accept_product_0x21: accept_0x21,
-            ..DecoderConfig::default()
+            ..VelodyneConfig::default()
         },
-        cut_azimuth_cdeg: None,
         max_duration_ns: 150_000_000,
         max_points: max_points_per_revolution(600.0, 0.15),
     };

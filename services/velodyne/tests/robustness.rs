@@ -7,6 +7,7 @@
 use std::io::Write;
 use std::net::Ipv4Addr;
 
+use mimnav_shared::config::ScanReturnSelect;
 use mimnav_shared::topics::{return_mode, return_type};
 use mimnav_velodyne::capture::{CaptureError, CaptureReader, PcapDatagramWriter};
 use mimnav_velodyne::packet::{
@@ -223,22 +224,32 @@ fn dual_pairs_follow_the_sensor_rules() {
         (p[96].return_type, p[96].distance_raw),
         (return_type::LAST, 800)
     );
-    // the scan takes the strongest by default: pair 2 has none
+    // the scan takes the last return by default (velodyne.scan_return = "last")
+    let cos = (1.0f32).to_radians().cos();
     let scan = &rev.scan;
     assert_eq!(scan.len(), 12);
-    assert!((scan[0].range_m - 2.0 * (1.0f32).to_radians().cos()).abs() < 1e-3);
+    assert!((scan[0].range_m - 2.0 * cos).abs() < 1e-3);
+    assert_eq!(scan[2].return_type, return_type::LAST);
+    assert!((scan[2].range_m - 4.0 * cos).abs() < 1e-3);
+    assert_eq!(scan[4].return_type, return_type::LAST);
+    assert!((scan[4].range_m - 1.6 * cos).abs() < 1e-3);
+    // and the strongest when asked: pair 2 has none
+    let mut strongest = AssemblerConfig::default();
+    strongest.velodyne.scan_return = ScanReturnSelect::Strongest;
+    let mut asm = Assembler::new(strongest);
+    asm.push(&bytes, 0, 0).expect("valid");
+    let scan = &asm.finish().expect("partial revolution").scan;
+    assert!((scan[0].range_m - 2.0 * cos).abs() < 1e-3);
     assert_eq!(scan[2].return_type, return_type::STRONGEST);
-    assert!((scan[2].range_m - 3.0 * (1.0f32).to_radians().cos()).abs() < 1e-3);
+    assert!((scan[2].range_m - 3.0 * cos).abs() < 1e-3);
     assert_eq!((scan[4].range_m, scan[4].return_type), (0.0, 0));
 }
 
 #[test]
 fn revolutions_are_cut_at_the_configured_azimuth() {
     // single-return stream at 600 rpm: 0.2° per block, 2.4° per packet
-    let mut cfg = AssemblerConfig {
-        cut_azimuth_cdeg: Some(9000),
-        ..AssemblerConfig::default()
-    };
+    let mut cfg = AssemblerConfig::default();
+    cfg.velodyne.cut_azimuth_deg = Some(90.0);
     cfg.max_duration_ns = 1_000_000_000;
     let mut asm = Assembler::new(cfg);
     let mut cuts = Vec::new();

@@ -50,8 +50,8 @@ fn goal(x: f64, y: f64, at: u64) -> Goal {
 }
 
 /// A pilot with a goal 3 m ahead and fresh odometry at `t`.
-fn driving(params: PilotParams, t: u64) -> Pilot {
-    let mut p = Pilot::new(PlannerParams::default(), params);
+fn driving(params: PlannerParams, t: u64) -> Pilot {
+    let mut p = Pilot::new(params);
     p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
     p.odom(&odom(t)).expect("good odometry");
     p
@@ -59,7 +59,7 @@ fn driving(params: PilotParams, t: u64) -> Pilot {
 
 #[test]
 fn without_a_goal_the_robot_stands() {
-    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let mut p = Pilot::new(PlannerParams::default());
     p.odom(&odom(10 * S)).expect("good odometry");
     let d = p.on_map(&header(1), free(), 10 * S);
     assert_eq!(
@@ -72,7 +72,7 @@ fn without_a_goal_the_robot_stands() {
 #[test]
 fn fresh_inputs_and_an_open_map_drive_towards_the_goal() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     let d = p.on_map(&header(1), free(), t + 50 * MS);
     assert_eq!(d.status, command_status::DRIVING, "{d:?}");
     assert!(d.v > 0.0 && d.omega.abs() < 0.2, "{d:?}");
@@ -83,7 +83,7 @@ fn fresh_inputs_and_an_open_map_drive_towards_the_goal() {
 fn the_goal_is_brought_into_the_robot_frame() {
     // the robot at (5, 5) facing −y: a goal at (5, 2) is straight ahead, one at (8, 5) to its left
     let t = 10 * S;
-    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let mut p = Pilot::new(PlannerParams::default());
     let o = Odometry {
         x: 5.0,
         y: 5.0,
@@ -103,7 +103,7 @@ fn the_goal_is_brought_into_the_robot_frame() {
 #[test]
 fn missing_or_old_odometry_stops_the_robot() {
     let t = 10 * S;
-    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let mut p = Pilot::new(PlannerParams::default());
     p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
     let d = p.on_map(&header(1), free(), t);
     assert_eq!(
@@ -111,7 +111,7 @@ fn missing_or_old_odometry_stops_the_robot() {
         (command_status::STALE_INPUT, Some(Stale::NoOdometry))
     );
     p.odom(&odom(t)).expect("good odometry");
-    let max = p.params().odom_max_age_ns;
+    let max = p.params().odom_max_age_ns();
     let d = p.on_map(&header(2), free(), t + max);
     assert_eq!(
         d.status,
@@ -134,7 +134,7 @@ fn missing_or_old_odometry_stops_the_robot() {
 #[test]
 fn non_finite_odometry_is_refused_and_ages_into_a_stop() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     for bad in [
         Odometry {
             x: f64::NAN,
@@ -164,7 +164,7 @@ fn non_finite_odometry_is_refused_and_ages_into_a_stop() {
 #[test]
 fn a_non_finite_goal_is_refused_and_the_last_good_one_kept() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     for bad in [
         goal(f64::NAN, 0.0, t),
         goal(0.0, f64::INFINITY, t),
@@ -188,10 +188,8 @@ fn a_non_finite_goal_is_refused_and_the_last_good_one_kept() {
 #[test]
 fn a_goal_expires_after_goal_max_age() {
     let t = 10 * S;
-    let params = PilotParams {
-        goal_max_age_ns: 2 * S,
-        ..PilotParams::default()
-    };
+    let mut params = PlannerParams::default();
+    params.planner.goal_max_age_s = 2.0;
     let mut p = driving(params, t);
     p.odom(&odom(t + 2 * S)).expect("good odometry");
     assert_eq!(
@@ -203,7 +201,7 @@ fn a_goal_expires_after_goal_max_age() {
     assert_eq!(d.status, command_status::NO_GOAL);
     assert!(p.current_goal().is_none(), "an expired goal is dropped");
     // 0: goals never expire
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     p.odom(&odom(t + 3600 * S)).expect("good odometry");
     assert_eq!(
         p.on_map(&header(1), free(), t + 3600 * S).status,
@@ -214,7 +212,7 @@ fn a_goal_expires_after_goal_max_age() {
 #[test]
 fn within_the_goal_tolerance_the_robot_stops() {
     let t = 10 * S;
-    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
+    let mut p = Pilot::new(PlannerParams::default());
     p.odom(&Odometry { x: 2.8, ..odom(t) })
         .expect("good odometry");
     p.goal(&goal(3.0, 0.0, t)).expect("a good goal");
@@ -228,7 +226,7 @@ fn within_the_goal_tolerance_the_robot_stops() {
 #[test]
 fn no_map_for_map_max_age_stops_the_robot() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     // before any map
     let d = p.on_silence(t, false).expect("no map yet is stale");
     assert_eq!(
@@ -236,7 +234,7 @@ fn no_map_for_map_max_age_stops_the_robot() {
         (command_status::STALE_INPUT, Some(Stale::NoMap))
     );
     p.on_map(&header(1), free(), t);
-    let max = p.params().map_max_age_ns;
+    let max = p.params().map_max_age_ns();
     assert_eq!(p.on_silence(t + max, false), None, "a map just in time");
     assert!(p.on_silence(t + max + 1, false).is_some(), "a map too old");
     assert!(
@@ -248,7 +246,7 @@ fn no_map_for_map_max_age_stops_the_robot() {
 #[test]
 fn a_map_that_does_not_match_its_header_stops_the_robot_and_is_not_a_map() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     let short = vec![cell_class::FREE; grid().len() - 1];
     let d = p.on_map(&header(1), short, t);
     assert_eq!(
@@ -267,7 +265,7 @@ fn a_map_that_does_not_match_its_header_stops_the_robot_and_is_not_a_map() {
     assert_eq!(p.on_map(&empty, Vec::new(), t).stale, Some(Stale::BadMap));
     // broken maps do not keep the silence rule quiet
     assert!(
-        p.on_silence(t + p.params().map_max_age_ns + 1, false)
+        p.on_silence(t + p.params().map_max_age_ns() + 1, false)
             .is_some()
     );
 }
@@ -275,7 +273,7 @@ fn a_map_that_does_not_match_its_header_stops_the_robot_and_is_not_a_map() {
 #[test]
 fn a_walled_in_robot_is_blocked() {
     let t = 10 * S;
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     let solid = vec![cell_class::SOLID; grid().len()];
     let d = p.on_map(&header(1), solid, t);
     assert_eq!(
@@ -318,7 +316,7 @@ fn fresh_foliage_obstacles_are_solid_and_stale_ones_ignored() {
     let grass = vec![cell_class::PASSABLE; grid().len()];
     let straight = |d: &Decision| d.status == command_status::DRIVING && d.omega.abs() < 0.05;
     // the way straight on, without a verdict
-    let mut p = driving(PilotParams::default(), t);
+    let mut p = driving(PlannerParams::default(), t);
     let clear = p.on_map(&header(1), grass.clone(), t);
     assert!(straight(&clear), "{clear:?}");
     assert_eq!(clear.flags, 0);
@@ -335,19 +333,15 @@ fn fresh_foliage_obstacles_are_solid_and_stale_ones_ignored() {
         .count();
     assert!(solid >= 8, "{solid} cells made solid");
     // the same verdict too old: ignored, alarm and all
-    let max = p.params().foliage_max_age_ns;
+    let max = p.params().foliage_max_age_ns();
     p.odom(&odom(t + max + 1)).expect("good odometry");
     let old = p.on_map(&header(3), grass.clone(), t + max + 1);
     assert!(straight(&old), "{old:?}");
     assert_eq!(old.flags, 0);
     // and ignored when the planner is told not to use the classifier
-    let mut p = driving(
-        PilotParams {
-            use_foliage: false,
-            ..PilotParams::default()
-        },
-        t,
-    );
+    let mut off = PlannerParams::default();
+    off.planner.use_foliage = false;
+    let mut p = driving(off, t);
     p.foliage(&h, &r);
     let off = p.on_map(&header(1), grass, t);
     assert!(straight(&off) && off.flags == 0, "{off:?}");
@@ -355,8 +349,8 @@ fn fresh_foliage_obstacles_are_solid_and_stale_ones_ignored() {
 
 #[test]
 fn a_command_expires_after_command_validity_and_never_carries_a_non_finite_number() {
-    let mut p = Pilot::new(PlannerParams::default(), PilotParams::default());
-    let validity = p.params().validity_ns;
+    let mut p = Pilot::new(PlannerParams::default());
+    let validity = p.params().command_validity_ns();
     assert_eq!(validity, 500 * MS, "robot.command_validity_s's default");
     let d = Decision {
         v: 0.3,

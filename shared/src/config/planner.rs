@@ -1,0 +1,150 @@
+//! `[planner]`: obstacle inflation and the dynamic window.
+
+use serde::Deserialize;
+
+use super::check::{Checks, Invalid};
+
+/// How the planner inflates obstacles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Inflation {
+    /// The paper's adaptive kernel along the goal direction.
+    Adaptive,
+    /// An all-ones e × e kernel (the ablation).
+    Uniform,
+    /// No inflation.
+    None,
+}
+
+/// The planner (`[planner]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// `adaptive`, `uniform` or `none`.
+    pub inflation: Inflation,
+    /// Side e of the inflation kernel, cells (odd).
+    pub kernel_cells: usize,
+    /// Thickness of the adaptive kernel's line either side, cells.
+    pub padding_cells: usize,
+    /// Goal directions the adaptive kernels are cached for, a half turn.
+    pub kernel_angles: usize,
+    /// Time the window's accelerations apply over (the control period), s.
+    pub window_s: f64,
+    /// Rollout step, s.
+    pub dt_s: f64,
+    /// Rollout horizon, s.
+    pub horizon_s: f64,
+    /// Speed samples.
+    pub v_samples: usize,
+    /// Turn-rate samples.
+    pub omega_samples: usize,
+    /// Weight of the remaining distance to the goal, per metre.
+    pub goal_weight: f64,
+    /// Weight of driving slower than the top speed, per m/s.
+    pub speed_weight: f64,
+    /// Weight of the obstacle cost summed along a trajectory (each cell 0–1).
+    pub obstacle_weight: f64,
+    /// Distance kept from solid and glass cells beyond the robot's radius, m. At least a cell:
+    /// the clearance is measured between cell centres, so it overstates the distance to a
+    /// surface by up to half a cell's diagonal, and a surface seen obliquely fills its outermost
+    /// cells last.
+    pub margin_m: f64,
+    /// Coarse cell of the route search around obstacles, m (0: straight-line goal progress, as
+    /// in the paper).
+    pub route_cell_m: f64,
+    /// Extra route cost per unit of planning cost.
+    pub route_cost_weight: f64,
+    /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
+    pub use_foliage: bool,
+    /// A foliage verdict older than this is ignored, s.
+    pub foliage_max_age_s: f64,
+    /// A map older than this is stale: zero velocity, s.
+    pub map_max_age_s: f64,
+    /// Odometry older than this is stale: zero velocity, s.
+    pub odom_max_age_s: f64,
+    /// A goal older than this is dropped (0: never), s.
+    pub goal_max_age_s: f64,
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        PlannerConfig {
+            inflation: Inflation::Adaptive,
+            kernel_cells: 13,
+            padding_cells: 1,
+            kernel_angles: 36,
+            window_s: 0.5,
+            dt_s: 0.1,
+            horizon_s: 3.5,
+            v_samples: 11,
+            omega_samples: 21,
+            goal_weight: 5.0,
+            speed_weight: 0.1,
+            obstacle_weight: 1.0,
+            margin_m: 0.1,
+            route_cell_m: 0.25,
+            route_cost_weight: 1.0,
+            use_foliage: true,
+            foliage_max_age_s: 0.3,
+            map_max_age_s: 0.15,
+            odom_max_age_s: 0.5,
+            goal_max_age_s: 0.0,
+        }
+    }
+}
+
+impl PlannerConfig {
+    /// Checks every key of `[planner]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
+        r.check("planner.kernel_cells", self.kernel_cells as f64, 1.0, 101.0);
+        r.require(
+            self.kernel_cells % 2 == 1,
+            "planner.kernel_cells",
+            format!("planner.kernel_cells = {} must be odd", self.kernel_cells),
+        );
+        r.check(
+            "planner.padding_cells",
+            self.padding_cells as f64,
+            0.0,
+            20.0,
+        );
+        r.check(
+            "planner.kernel_angles",
+            self.kernel_angles as f64,
+            1.0,
+            3600.0,
+        );
+        r.check("planner.window_s", self.window_s, 0.01, 5.0);
+        r.check("planner.dt_s", self.dt_s, 0.01, 1.0);
+        r.check("planner.horizon_s", self.horizon_s, 0.1, 20.0);
+        r.check("planner.v_samples", self.v_samples as f64, 1.0, 200.0);
+        r.check(
+            "planner.omega_samples",
+            self.omega_samples as f64,
+            1.0,
+            400.0,
+        );
+        r.check("planner.goal_weight", self.goal_weight, 0.0, 1000.0);
+        r.check("planner.speed_weight", self.speed_weight, 0.0, 1000.0);
+        r.check("planner.obstacle_weight", self.obstacle_weight, 0.0, 1000.0);
+        r.check("planner.margin_m", self.margin_m, 0.0, 2.0);
+        r.check("planner.route_cell_m", self.route_cell_m, 0.0, 2.0);
+        r.check(
+            "planner.route_cost_weight",
+            self.route_cost_weight,
+            0.0,
+            100.0,
+        );
+        r.check(
+            "planner.foliage_max_age_s",
+            self.foliage_max_age_s,
+            0.01,
+            60.0,
+        );
+        r.check("planner.map_max_age_s", self.map_max_age_s, 0.01, 60.0);
+        r.check("planner.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
+        r.check("planner.goal_max_age_s", self.goal_max_age_s, 0.0, 86400.0);
+        r.finish()
+    }
+}

@@ -1,0 +1,108 @@
+//! `[sim]`: the simulator.
+
+use std::net::IpAddr;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use super::check::{Checks, Invalid};
+
+/// Return mode the simulated sensor is set to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SimReturnMode {
+    /// Strongest return (0x37).
+    Strongest,
+    /// Last return (0x38).
+    Last,
+    /// Dual return (0x39).
+    Dual,
+}
+
+impl SimReturnMode {
+    /// The return-mode byte the sensor writes in its data packets ([`crate::topics::return_mode`]).
+    pub fn byte(self) -> u8 {
+        use crate::topics::return_mode;
+        match self {
+            SimReturnMode::Strongest => return_mode::STRONGEST,
+            SimReturnMode::Last => return_mode::LAST,
+            SimReturnMode::Dual => return_mode::DUAL,
+        }
+    }
+}
+
+/// The simulator (`[sim]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// World file; a relative path is taken from the config file's folder.
+    pub world: PathBuf,
+    /// Seed of every random draw: the same seed gives the same bytes.
+    pub seed: u64,
+    /// The simulated sensor's return mode.
+    pub return_mode: SimReturnMode,
+    /// Where streamed packets go (data to `velodyne.data_port`, position packets to
+    /// `velodyne.position_port`); loopback only unless you mean it.
+    pub udp_target: IpAddr,
+    /// Standard deviation of the range noise of solid surfaces, metres.
+    pub range_noise_m: f64,
+    /// Standard deviation of the intensity noise, reflectivity units.
+    pub intensity_noise: f64,
+    /// Glass returns only within this angle of normal incidence, degrees.
+    pub glass_specular_deg: f64,
+    /// Lock-step: send one revolution, then wait for the stack's command before the next.
+    pub lockstep: bool,
+    /// In lock-step, how long to wait for the stack's command before going on without one, s.
+    pub lockstep_timeout_s: f64,
+    /// The goal counts as reached within this distance, metres.
+    pub goal_tolerance_m: f64,
+    /// Grass as blades standing in the ground, which neighbouring beams meet alike (the
+    /// VLP-16's spot is wider than its firing spacing), instead of blades drawn for each beam
+    /// on its own (the default, which every published figure uses).
+    pub grass_blades: bool,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            world: PathBuf::from("worlds/scenario1_glass_wall.toml"),
+            seed: 1,
+            return_mode: SimReturnMode::Dual,
+            udp_target: IpAddr::from([127, 0, 0, 1]),
+            range_noise_m: 0.015,
+            intensity_noise: 1.5,
+            glass_specular_deg: 3.0,
+            lockstep: false,
+            lockstep_timeout_s: 5.0,
+            goal_tolerance_m: 0.3,
+            grass_blades: false,
+        }
+    }
+}
+
+impl SimConfig {
+    /// Checks every key of `[sim]`: each value refused names its key and what is allowed.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let mut r = Checks::default();
+        r.check("sim.range_noise_m", self.range_noise_m, 0.0, 0.5);
+        r.check("sim.intensity_noise", self.intensity_noise, 0.0, 50.0);
+        r.check("sim.glass_specular_deg", self.glass_specular_deg, 0.1, 30.0);
+        r.check(
+            "sim.lockstep_timeout_s",
+            self.lockstep_timeout_s,
+            0.01,
+            600.0,
+        );
+        r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
+        r.finish()
+    }
+
+    /// The world file, relative paths taken from `config_dir`.
+    pub fn world_path(&self, config_dir: &Path) -> PathBuf {
+        if self.world.is_absolute() {
+            self.world.clone()
+        } else {
+            config_dir.join(&self.world)
+        }
+    }
+}
