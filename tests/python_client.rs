@@ -5,7 +5,6 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use mimnav_shared::config::Config;
@@ -14,7 +13,7 @@ use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use crate::topics_doc::{Layout, documented_layouts, plain, table, tables, topics_md};
 use crate::util::{
     PointsTap, Proc, bin, config_args, lines_of, python_with_iceoryx2, reference_counts, root,
-    shipped_config, velodyne_data,
+    shipped_config, velodyne_data, wait_until,
 };
 
 fn client_dir() -> PathBuf {
@@ -28,29 +27,6 @@ fn python(py: &Path) -> Command {
         .env("PYTHONDONTWRITEBYTECODE", "1")
         .arg("-u");
     c
-}
-
-/// Lines until one satisfies `hit` (true) or `within` passes (false); all kept in `seen`.
-fn wait_until(
-    rx: &Receiver<String>,
-    hit: impl Fn(&str) -> bool,
-    within: Duration,
-    seen: &mut Vec<String>,
-) -> bool {
-    let until = Instant::now() + within;
-    while let Some(left) = until.checked_duration_since(Instant::now()) {
-        match rx.recv_timeout(left) {
-            Ok(l) => {
-                let found = hit(&l);
-                seen.push(l);
-                if found {
-                    return true;
-                }
-            }
-            Err(_) => return false,
-        }
-    }
-    false
 }
 
 /// `key=value` pairs of a line.

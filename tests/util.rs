@@ -256,3 +256,26 @@ pub fn lines_of(r: impl std::io::Read + Send + 'static) -> std::sync::mpsc::Rece
     });
     rx
 }
+
+/// Lines until one satisfies `hit` (true) or `within` passes (false); all kept in `seen`.
+pub fn wait_until(
+    rx: &std::sync::mpsc::Receiver<String>,
+    hit: impl Fn(&str) -> bool,
+    within: Duration,
+    seen: &mut Vec<String>,
+) -> bool {
+    let until = Instant::now() + within;
+    while let Some(left) = until.checked_duration_since(Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(l) => {
+                let found = hit(&l);
+                seen.push(l);
+                if found {
+                    return true;
+                }
+            }
+            Err(_) => return false,
+        }
+    }
+    false
+}

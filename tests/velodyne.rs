@@ -1,9 +1,9 @@
-use std::io::{BufRead, BufReader, Read};
+use std::io::Read;
 use std::net::{Ipv4Addr, UdpSocket};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use mimnav_shared::ipc::PrivateDomain;
 use mimnav_shared::topics::cut_reason;
@@ -11,7 +11,8 @@ use mimnav_velodyne::capture::{CaptureReader, PcapDatagramWriter};
 use mimnav_velodyne::packet::{BLOCKS, CHANNELS, encode_data_packet};
 
 use crate::util::{
-    PointsTap, Proc, bin, free_udp_port, reference_counts, shipped_config, velodyne_data,
+    PointsTap, Proc, bin, free_udp_port, lines_of, reference_counts, shipped_config, velodyne_data,
+    wait_until,
 };
 
 fn driver(domain: &PrivateDomain) -> Command {
@@ -25,16 +26,7 @@ fn driver(domain: &PrivateDomain) -> Command {
 
 /// Forwards a child's stderr lines to a channel (and keeps them for the assertion messages).
 fn stderr_lines(p: &mut Proc) -> mpsc::Receiver<String> {
-    let (tx, rx) = mpsc::channel();
-    let err = p.0.stderr.take().expect("piped stderr");
-    std::thread::spawn(move || {
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
-    rx
+    lines_of(p.0.stderr.take().expect("piped stderr"))
 }
 
 fn wait_for_line(
@@ -43,20 +35,7 @@ fn wait_for_line(
     within: Duration,
     seen: &mut Vec<String>,
 ) -> bool {
-    let until = Instant::now() + within;
-    while let Some(left) = until.checked_duration_since(Instant::now()) {
-        match rx.recv_timeout(left) {
-            Ok(l) => {
-                let hit = l.contains(needle);
-                seen.push(l);
-                if hit {
-                    return true;
-                }
-            }
-            Err(_) => return false,
-        }
-    }
-    false
+    wait_until(rx, |l| l.contains(needle), within, seen)
 }
 
 #[test]
