@@ -1,7 +1,10 @@
 //! Unit and integration tests. No dev-dependencies: a tiny deterministic PRNG and a planar scene
 //! simulator (trunks, walls, a grass field) live here.
 
+use std::f32::consts::{PI, TAU};
+
 use super::*;
+use crate::low_freq::differences;
 use mimnav_shared::pose::pose2;
 
 // ---------------------------------------------------------------------------------------------
