@@ -169,6 +169,10 @@ mod history;
 mod low_freq;
 mod prune;
 mod relax;
+// The synthetic scenes of the unit tests, public (and hidden from the docs) so that the `scan`
+// bench times the classifier on the same scenes instead of a copy of the simulator.
+#[doc(hidden)]
+pub mod scene;
 pub mod step;
 
 pub use archive::{evidence_step, update_and_archive};

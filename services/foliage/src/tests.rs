@@ -1,7 +1,7 @@
 //! Unit and integration tests, one module per routine of the paper (as the library is cut) and
 //! for the classifier as a whole. No dev-dependencies: a tiny deterministic PRNG and a planar scene
-//! simulator (trunks, walls, a grass field) live in `scene`; the helpers shared by the modules are
-//! here.
+//! simulator (trunks, walls, a grass field) live in the crate's hidden `scene` module, shared with
+//! the `scan` bench; the helpers shared by the test modules are here.
 
 use std::f32::consts::{PI, TAU};
 
@@ -19,10 +19,9 @@ mod low_freq;
 mod paper_loops;
 mod prune;
 mod relax;
-mod scene;
 mod scenes;
 
-use scene::*;
+use crate::scene::*;
 
 fn classifier() -> Classifier {
     match Classifier::new(FoliageParams::default()) {
