@@ -514,6 +514,9 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
 /// within 3 % of the true length) on a 5 cm grid of the whole world. None when there is no way.
 pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     let (grid, centre, classes) = world_truth(scene, &[], 2000);
+    // the goal and the start in the grid's frame
+    let goal = centre.to_local(scene.goal[0], scene.goal[1]);
+    let start = centre.to_local(scene.start[0], scene.start[1]);
     let p = PlannerParams::from_config(config);
     let mut route = mimnav_planner::route::Route::default();
     route.build(
@@ -526,15 +529,9 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
         grid,
         &classes,
         &vec![0; classes.len()],
-        (
-            (scene.goal[0] - centre.x()) as f32,
-            (scene.goal[1] - centre.y()) as f32,
-        ),
+        (goal.0 as f32, goal.1 as f32),
     );
-    let v = route.value(
-        (scene.start[0] - centre.x()) as f32,
-        (scene.start[1] - centre.y()) as f32,
-    );
+    let v = route.value(start.0 as f32, start.1 as f32);
     v.is_finite()
         .then(|| (f64::from(v) - config.sim.goal_tolerance_m).max(0.01))
 }
@@ -594,9 +591,10 @@ fn plot(scene: &Scene, episodes: &[&Episode]) -> Image {
     let mut img = Image::new(cells * px, cells * px);
     let h = f64::from(grid.half_extent_m());
     let to_px = |x: f64, y: f64| {
+        let (x, y) = centre.to_local(x, y);
         (
-            (x - centre.x() + h) / f64::from(cell) * px as f64,
-            (h - (y - centre.y())) / f64::from(cell) * px as f64,
+            (x + h) / f64::from(cell) * px as f64,
+            (h - y) / f64::from(cell) * px as f64,
         )
     };
     for v in 0..img.height {

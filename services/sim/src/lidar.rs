@@ -205,7 +205,7 @@ impl Vlp16 {
             ];
         };
         // in the sensor's frame, tilted by the mount's roll and pitch, then turned by the
-        // sensor's heading
+        // sensor's heading (written out with its sine and cosine: this runs for every beam)
         let (s, c) = (-az_deg.to_radians()).sin_cos();
         let d = [
             self.cos_elev[laser] * c,

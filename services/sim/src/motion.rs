@@ -89,10 +89,9 @@ impl WaypointDriver {
         let Some(w) = self.waypoints.get(self.next) else {
             return (0.0, 0.0);
         };
-        let (dx, dy) = (w[0] - pose.x(), w[1] - pose.y());
-        let err = (dy.atan2(dx) - pose.yaw() + std::f64::consts::PI)
-            .rem_euclid(std::f64::consts::TAU)
-            - std::f64::consts::PI;
+        // the waypoint in the robot frame: its bearing there is the heading error
+        let (dx, dy) = pose.to_local(w[0], w[1]);
+        let err = dy.atan2(dx);
         let omega = (2.0 * err).clamp(-lim.max_angular_rps, lim.max_angular_rps);
         let last = self.next + 1 == self.waypoints.len();
         let dist = dx.hypot(dy);
