@@ -43,7 +43,7 @@ fn revolutions(
             rev.points.clone(),
             sim.odometry(out.len() as u64, now),
         ));
-        let (v, w) = driver.command(sim.base().pose, &limits);
+        let (v, w) = driver.command(&sim.base().pose, &limits);
         sim.set_command(v, w);
     }
     out

@@ -22,9 +22,10 @@ use mimnav_planner::inflate::Inflation;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{cell_class, command_status};
+use mimnav_sim::Outcome;
 use mimnav_sim::world::{Scene, WorldFile};
-use mimnav_sim::{Outcome, Pose};
 
 /// A way of making the map the planner drives on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -245,7 +246,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
             episode.score.add(&score(run.classes(), &truth, grid, 4.5));
         }
         let p = run.sim().base().pose;
-        episode.trajectory.push((p.x, p.y));
+        episode.trajectory.push((p.x(), p.y()));
     }
     let sim = run.sim();
     episode.path_m = sim.path_length_m();
@@ -513,6 +514,9 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
 /// within 3 % of the true length) on a 5 cm grid of the whole world. None when there is no way.
 pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     let (grid, centre, classes) = world_truth(scene, &[], 2000);
+    // the goal and the start in the grid's frame
+    let goal = centre.to_local(scene.goal[0], scene.goal[1]);
+    let start = centre.to_local(scene.start[0], scene.start[1]);
     let p = PlannerParams::from_config(config);
     let mut route = mimnav_planner::route::Route::default();
     route.build(
@@ -525,15 +529,9 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
         grid,
         &classes,
         &vec![0; classes.len()],
-        (
-            (scene.goal[0] - centre.x) as f32,
-            (scene.goal[1] - centre.y) as f32,
-        ),
+        (goal.0 as f32, goal.1 as f32),
     );
-    let v = route.value(
-        (scene.start[0] - centre.x) as f32,
-        (scene.start[1] - centre.y) as f32,
-    );
+    let v = route.value(start.0 as f32, start.1 as f32);
     v.is_finite()
         .then(|| (f64::from(v) - config.sim.goal_tolerance_m).max(0.01))
 }
@@ -544,20 +542,16 @@ fn world_truth(
     scene: &Scene,
     episodes: &[&Episode],
     max_cells: usize,
-) -> (GridSpec, Pose, Vec<u8>) {
+) -> (GridSpec, Pose2, Vec<u8>) {
     let (x0, y0, x1, y1) = extent(scene, episodes);
     let cell_m = 0.05f32;
     let cells = ((x1 - x0).max(y1 - y0) / f64::from(cell_m))
         .ceil()
         .clamp(10.0, max_cells as f64) as usize;
     let grid = GridSpec { cells, cell_m };
-    let centre = Pose {
-        x: 0.5 * (x0 + x1),
-        y: 0.5 * (y0 + y1),
-        yaw: 0.0,
-    };
+    let centre = pose2(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0);
     let mut classes = Vec::new();
-    mimnav_sim::truth::truth_grid(scene, centre, grid, &mut classes);
+    mimnav_sim::truth::truth_grid(scene, &centre, grid, &mut classes);
     (grid, centre, classes)
 }
 
@@ -597,9 +591,10 @@ fn plot(scene: &Scene, episodes: &[&Episode]) -> Image {
     let mut img = Image::new(cells * px, cells * px);
     let h = f64::from(grid.half_extent_m());
     let to_px = |x: f64, y: f64| {
+        let (x, y) = centre.to_local(x, y);
         (
-            (x - centre.x + h) / f64::from(cell) * px as f64,
-            (h - (y - centre.y)) / f64::from(cell) * px as f64,
+            (x + h) / f64::from(cell) * px as f64,
+            (h - y) / f64::from(cell) * px as f64,
         )
     };
     for v in 0..img.height {

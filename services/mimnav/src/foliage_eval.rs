@@ -37,6 +37,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
+use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::topics::{cell_class, foliage_class};
 use mimnav_sim::Outcome;
 use mimnav_sim::geometry::{footprint_distance, intersect};
@@ -379,7 +380,7 @@ pub fn run_episode(
         episode.false_alarms += u64::from(alarm && !on_any);
         let p = stack.sim().base().pose;
         for (k, rec) in episode.obstacles.iter_mut().enumerate() {
-            let dist = footprint_distance(&scene.objects[rec.object].shape, [p.x, p.y]) as f32;
+            let dist = footprint_distance(&scene.objects[rec.object].shape, [p.x(), p.y()]) as f32;
             let in_range = dist >= d_min && dist <= d_max;
             let visible = on[k] >= min_returns;
             let alarmed = hits[k] > 0;

@@ -100,7 +100,7 @@ pub fn score_world(
             if hidden.objects.is_empty() {
                 visible.add(&last);
             } else {
-                mimnav_sim::truth::truth_grid(&hidden, pose, grid, &mut hidden_cells);
+                mimnav_sim::truth::truth_grid(&hidden, &pose, grid, &mut hidden_cells);
                 exclude.clear();
                 exclude.extend(
                     hidden_cells
@@ -117,7 +117,7 @@ pub fn score_world(
             }
             revolutions += 1;
         }
-        let (v, w) = driver.command(pose, &limits);
+        let (v, w) = driver.command(&pose, &limits);
         stack.sim_mut().set_command(v, w);
     }
     let sim = stack.sim();

@@ -11,7 +11,7 @@ use mimnav_planner::inflate::Inflation;
 use mimnav_planner::{Planner, PlannerParams};
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::config::Config;
-use mimnav_shared::pose::{Pose2Ext, pose2};
+use mimnav_shared::pose::Pose2Ext;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;
 
@@ -56,11 +56,10 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
         let b = *stack.sim().base();
         k += 1;
         if k % 5 == 0 {
-            let robot = pose2(b.pose.x, b.pose.y, b.pose.yaw);
-            let goal_robot = robot.to_local(goal[0], goal[1]);
+            let goal_robot = b.pose.to_local(goal[0], goal[1]);
             out.push((stack.classes().to_vec(), b.v, b.omega, goal_robot));
         }
-        let (v, w) = driver.command(b.pose, &limits);
+        let (v, w) = driver.command(&b.pose, &limits);
         stack.sim_mut().set_command(v, w);
     }
     out

@@ -30,6 +30,7 @@ pub mod world;
 
 use mimnav_shared::config::{Config, RobotProfile, SimConfig};
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry};
 use mimnav_velodyne::packet::{BLOCKS, POSITION_PACKET_LEN};
 use mimnav_velodyne::revolution::TurnCutter;
@@ -85,17 +86,6 @@ pub fn write_capture<W: std::io::Write>(
 
 /// Sensor clock start of captures, for reproducible bytes: 2026-01-01T00:00:00Z.
 pub const DEFAULT_EPOCH_NS: u64 = 1_767_225_600_000_000_000;
-
-/// A 2-D pose: position (m) and heading (rad, counter-clockwise from x).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose {
-    /// x, m.
-    pub x: f64,
-    /// y, m.
-    pub y: f64,
-    /// Heading, rad.
-    pub yaw: f64,
-}
 
 /// Everything the simulation needs besides the world: `[sim]` (the beam physics, the return
 /// mode, the goal tolerance), the robot of `[robot]` (the sensor's height, the footprint, the
@@ -216,18 +206,14 @@ pub struct Sim {
     path_length_m: f64,
     revolutions: u64,
     revolution_start_ns: u64,
-    revolution_start_pose: Pose,
+    revolution_start_pose: Pose2,
 }
 
 impl Sim {
     /// A simulation of `scene` starting at the scene's start pose; the sensor's clock starts at
     /// `epoch_ns`, and every random draw follows `seed`.
     pub fn new(scene: Scene, settings: SimSettings, seed: u64, epoch_ns: u64) -> Self {
-        let start = Pose {
-            x: scene.start[0],
-            y: scene.start[1],
-            yaw: scene.start[2],
-        };
+        let start = pose2(scene.start[0], scene.start[1], scene.start[2]);
         Sim {
             lidar: Vlp16::new(&settings, seed, epoch_ns),
             base: Base::at(start),
@@ -291,26 +277,26 @@ impl Sim {
     }
 
     /// Sensor time and pose at the start of the current revolution.
-    pub fn revolution_start(&self) -> (u64, Pose) {
+    pub fn revolution_start(&self) -> (u64, Pose2) {
         (self.revolution_start_ns, self.revolution_start_pose)
     }
 
     /// Distance from the robot to the goal, m.
     pub fn distance_to_goal(&self) -> f64 {
-        let p = self.base.pose;
-        (self.scene.goal[0] - p.x).hypot(self.scene.goal[1] - p.y)
+        let p = &self.base.pose;
+        (self.scene.goal[0] - p.x()).hypot(self.scene.goal[1] - p.y())
     }
 
     /// The beams `laser` (firing order) fires in the next [`Sim::step`], from the current pose,
     /// in firing order: one per firing, as the driver's planar scan has one return per firing.
     pub fn next_beams(&self, laser: usize, out: &mut Vec<lidar::Beam>) {
-        self.lidar.next_beams(self.base.pose, laser, out);
+        self.lidar.next_beams(&self.base.pose, laser, out);
     }
 
     /// Casts the next packet from the current pose, then moves the base for one packet period.
     pub fn step(&mut self) -> Step {
         let first_firing_ns = self.lidar.now_ns();
-        let data = self.lidar.next_packet(&self.scene, self.base.pose);
+        let data = self.lidar.next_packet(&self.scene, &self.base.pose);
         let period = self.lidar.packet_period_ns();
         let send_ns = first_firing_ns + period;
         let position = if first_firing_ns >= self.next_position_ns {
@@ -347,14 +333,14 @@ impl Sim {
         self.base
             .step(self.cmd.0, self.cmd.1, dt, &self.settings.robot);
         let p = self.base.pose;
-        if let Some(i) = motion::contact(&self.scene, p.x, p.y, self.settings.robot.radius_m) {
+        if let Some(i) = motion::contact(&self.scene, p.x(), p.y(), self.settings.robot.radius_m) {
             self.base = before;
             self.base.v = 0.0;
             self.base.omega = 0.0;
             self.outcome = Outcome::Contact(i);
             return;
         }
-        self.path_length_m += (p.x - before.pose.x).hypot(p.y - before.pose.y);
+        self.path_length_m += (p.x() - before.pose.x()).hypot(p.y() - before.pose.y());
         if self.distance_to_goal() <= self.settings.sim.goal_tolerance_m {
             self.outcome = Outcome::GoalReached;
         } else if self.elapsed_s() > self.scene.time_limit_s {
@@ -371,9 +357,9 @@ impl Sim {
             seq,
             stamp_ns: self.now_ns(),
             rx_mono_ns,
-            x: b.pose.x,
-            y: b.pose.y,
-            yaw: b.pose.yaw,
+            x: b.pose.x(),
+            y: b.pose.y(),
+            yaw: b.pose.yaw(),
             v: b.v as f32,
             omega: b.omega as f32,
         }
@@ -381,7 +367,7 @@ impl Sim {
 
     /// How the episode stands, for people (`Display`) and programs (JSON).
     pub fn summary(&self, stopped: bool, lockstep_timeouts: u64) -> Summary {
-        let p = self.base.pose;
+        let p = &self.base.pose;
         let (start, goal) = (self.scene.start, self.scene.goal);
         Summary {
             world: self.scene.name.clone(),
@@ -396,8 +382,8 @@ impl Sim {
             path_length_m: self.path_length_m,
             straight_m: (goal[0] - start[0]).hypot(goal[1] - start[1]),
             distance_to_goal_m: self.distance_to_goal(),
-            x: p.x,
-            y: p.y,
+            x: p.x(),
+            y: p.y(),
             revolutions: self.revolutions,
             lockstep_timeouts,
         }
@@ -405,6 +391,6 @@ impl Sim {
 
     /// The true class of every cell of `grid` around the current pose.
     pub fn truth(&self, grid: GridSpec, out: &mut Vec<u8>) {
-        truth::truth_grid(&self.scene, self.base.pose, grid, out);
+        truth::truth_grid(&self.scene, &self.base.pose, grid, out);
     }
 }

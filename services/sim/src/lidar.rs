@@ -8,16 +8,16 @@
 //! in µs past the top of the hour.
 
 use mimnav_shared::config::SimConfig;
-use mimnav_shared::pose::{LidarMount, Pose2Ext, pose2};
+use mimnav_shared::pose::{LidarMount, Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
 use mimnav_velodyne::packet::{
     BLOCKS, CHANNELS, LASERS, POSITION_PACKET_LEN, VLP16_ELEVATION_DEG, encode_data_packet,
     encode_position_packet,
 };
 
+use crate::SimSettings;
 use crate::physics::{BeamCaster, Echo, MAX_RANGE_M, dual_returns, last, strongest};
 use crate::world::Scene;
-use crate::{Pose, SimSettings};
 
 /// The product byte the simulated sensor writes: a VLP-16.
 const PRODUCT: u8 = 0x22;
@@ -102,17 +102,12 @@ impl Vlp16 {
 
     /// The sensor's pose on the ground plane when the robot's base is at `base`: the mount's
     /// offset and yaw composed onto the base's pose.
-    pub fn sensor_pose(&self, base: Pose) -> Pose {
+    pub fn sensor_pose(&self, base: &Pose2) -> Pose2 {
         let m = &self.mount;
         if m.x_m == 0.0 && m.y_m == 0.0 && m.yaw_deg == 0.0 {
-            return base;
+            return *base;
         }
-        let p = pose2(base.x, base.y, base.yaw) * pose2(m.x_m, m.y_m, m.yaw_deg.to_radians());
-        Pose {
-            x: p.x(),
-            y: p.y(),
-            yaw: p.yaw(),
-        }
+        base * pose2(m.x_m, m.y_m, m.yaw_deg.to_radians())
     }
 
     /// Time one data packet covers, ns.
@@ -137,8 +132,11 @@ impl Vlp16 {
 
     /// Casts every firing of the next packet from `pose` and encodes it; the sensor's clock moves
     /// on by one packet.
-    pub fn next_packet(&mut self, scene: &Scene, base: Pose) -> [u8; DATA_PACKET_LEN] {
+    pub fn next_packet(&mut self, scene: &Scene, base: &Pose2) -> [u8; DATA_PACKET_LEN] {
+        // the loops over the firings take the sensor's position and heading as numbers, read
+        // once a packet (a Pose2's heading is an atan2)
         let pose = self.sensor_pose(base);
+        let (origin, yaw) = ([pose.x(), pose.y(), self.sensor_height_m], pose.yaw());
         let dual = self.return_mode == return_mode::DUAL;
         let t0 = self.elapsed_ns;
         let mut blocks = [(0u16, [(0u16, 0u8); CHANNELS]); BLOCKS];
@@ -150,10 +148,11 @@ impl Vlp16 {
             let mut chans_b = [(0u16, 0u8); CHANNELS];
             for seq in 0..2 {
                 let t_seq = t_block + seq as u64 * SEQUENCE_NS;
-                self.prefilter(scene, pose, self.azimuth_deg(t_seq));
+                self.prefilter(scene, origin, yaw, self.azimuth_deg(t_seq));
                 for laser in 0..LASERS {
                     let t_fire = firing_ns(t0, k, seq, laser);
-                    let (a, b) = self.fire(scene, pose, laser, self.azimuth_deg(t_fire), t_fire);
+                    let az_deg = self.azimuth_deg(t_fire);
+                    let (a, b) = self.fire(scene, origin, yaw, laser, az_deg, t_fire);
                     chans_a[seq * LASERS + laser] = a;
                     chans_b[seq * LASERS + laser] = b;
                 }
@@ -174,8 +173,9 @@ impl Vlp16 {
     /// [`Vlp16::next_packet`] casts for it (origin, direction and azimuth), for ground truth
     /// about what one laser can see (`mimnav foliage-eval`). `out` is cleared first; the
     /// sensor's clock does not move.
-    pub fn next_beams(&self, base: Pose, laser: usize, out: &mut Vec<Beam>) {
+    pub fn next_beams(&self, base: &Pose2, laser: usize, out: &mut Vec<Beam>) {
         let pose = self.sensor_pose(base);
+        let yaw = pose.yaw();
         out.clear();
         let laser = laser % LASERS;
         let dual = self.return_mode == return_mode::DUAL;
@@ -184,18 +184,19 @@ impl Vlp16 {
             for seq in 0..2 {
                 let az_deg = self.azimuth_deg(firing_ns(self.elapsed_ns, k, seq, laser));
                 out.push(Beam {
-                    origin: [pose.x, pose.y, self.sensor_height_m],
-                    dir: self.direction(pose, laser, az_deg),
+                    origin: [pose.x(), pose.y(), self.sensor_height_m],
+                    dir: self.direction(yaw, laser, az_deg),
                     azimuth_deg: az_deg,
                 });
             }
         }
     }
 
-    /// Unit direction of `laser`'s beam at azimuth `az_deg` (clockwise from forward) from `pose`.
-    fn direction(&self, pose: Pose, laser: usize, az_deg: f64) -> [f64; 3] {
+    /// Unit direction of `laser`'s beam at azimuth `az_deg` (clockwise from forward) from a
+    /// sensor heading `yaw` (rad).
+    fn direction(&self, yaw: f64, laser: usize, az_deg: f64) -> [f64; 3] {
         let Some(r) = &self.tilt else {
-            let heading = pose.yaw - az_deg.to_radians();
+            let heading = yaw - az_deg.to_radians();
             let (s, c) = heading.sin_cos();
             return [
                 self.cos_elev[laser] * c,
@@ -204,7 +205,7 @@ impl Vlp16 {
             ];
         };
         // in the sensor's frame, tilted by the mount's roll and pitch, then turned by the
-        // sensor's heading
+        // sensor's heading (written out with its sine and cosine: this runs for every beam)
         let (s, c) = (-az_deg.to_radians()).sin_cos();
         let d = [
             self.cos_elev[laser] * c,
@@ -212,13 +213,14 @@ impl Vlp16 {
             self.sin_elev[laser],
         ];
         let t: [f64; 3] = std::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
-        let (s, c) = pose.yaw.sin_cos();
+        let (s, c) = yaw.sin_cos();
         [c * t[0] - s * t[1], s * t[0] + c * t[1], t[2]]
     }
 
-    /// Objects whose bounding circle the beam at azimuth `az_deg` passes near.
-    fn prefilter(&mut self, scene: &Scene, pose: Pose, az_deg: f64) {
-        let heading = pose.yaw - az_deg.to_radians();
+    /// Objects whose bounding circle the beam at azimuth `az_deg` from a sensor at `origin`
+    /// heading `yaw` passes near.
+    fn prefilter(&mut self, scene: &Scene, origin: [f64; 3], yaw: f64, az_deg: f64) {
+        let heading = yaw - az_deg.to_radians();
         let (uy, ux) = heading.sin_cos();
         self.candidates.clear();
         if self.tilt.is_some() {
@@ -228,7 +230,7 @@ impl Vlp16 {
         }
         for (i, obj) in scene.objects.iter().enumerate() {
             let (c, r) = obj.bound;
-            let (dx, dy) = (c[0] - pose.x, c[1] - pose.y);
+            let (dx, dy) = (c[0] - origin[0], c[1] - origin[1]);
             let along = dx * ux + dy * uy;
             let r = r + PREFILTER_MARGIN_M;
             if along < -r || along > MAX_RANGE_M + r {
@@ -245,17 +247,17 @@ impl Vlp16 {
     fn fire(
         &mut self,
         scene: &Scene,
-        pose: Pose,
+        origin: [f64; 3],
+        yaw: f64,
         laser: usize,
         az_deg: f64,
         elapsed_ns: u64,
     ) -> ((u16, u8), (u16, u8)) {
-        let d = self.direction(pose, laser, az_deg);
-        let o = [pose.x, pose.y, self.sensor_height_m];
+        let d = self.direction(yaw, laser, az_deg);
         let echoes = self.caster.cast(
             scene,
             &self.candidates,
-            o,
+            origin,
             d,
             elapsed_ns as f64 * 1e-9,
             &self.physics,

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use mimnav_shared::config::Config;
 use mimnav_shared::ipc::{self, Listening, ValueSubscriber};
+use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::service::{Health, Service};
 use mimnav_shared::topics::{TruthHeader, VelocityCommand};
 use mimnav_sim::{Outcome, Sim};
@@ -101,9 +102,9 @@ pub fn run(
             let header = TruthHeader {
                 seq: sim.revolutions(),
                 stamp_ns: completed,
-                x: p.x,
-                y: p.y,
-                yaw: p.yaw,
+                x: p.x(),
+                y: p.y(),
+                yaw: p.yaw(),
                 cells: grid.cells as u32,
                 cell_m: grid.cell_m,
             };

@@ -2,8 +2,8 @@
 //! limits, and the collision check against the scene.
 
 use mimnav_shared::config::RobotProfile;
+use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 
-use crate::Pose;
 use crate::geometry::footprint_distance;
 use crate::world::Scene;
 
@@ -11,7 +11,7 @@ use crate::world::Scene;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Base {
     /// Pose in the world.
-    pub pose: Pose,
+    pub pose: Pose2,
     /// Forward speed, m/s.
     pub v: f64,
     /// Turn rate, rad/s.
@@ -20,7 +20,7 @@ pub struct Base {
 
 impl Base {
     /// A base at rest at `pose`.
-    pub fn at(pose: Pose) -> Self {
+    pub fn at(pose: Pose2) -> Self {
         Base {
             pose,
             v: 0.0,
@@ -42,12 +42,15 @@ impl Base {
         // midpoint integration of the unicycle
         let v = 0.5 * (v0 + self.v);
         let w = 0.5 * (w0 + self.omega);
-        let yaw_mid = self.pose.yaw + 0.5 * w * dt;
-        self.pose.x += v * yaw_mid.cos() * dt;
-        self.pose.y += v * yaw_mid.sin() * dt;
-        self.pose.yaw = (self.pose.yaw + w * dt + std::f64::consts::PI)
-            .rem_euclid(std::f64::consts::TAU)
+        let yaw = self.pose.yaw();
+        let yaw_mid = yaw + 0.5 * w * dt;
+        let x = self.pose.x() + v * yaw_mid.cos() * dt;
+        let y = self.pose.y() + v * yaw_mid.sin() * dt;
+        // (wrapped as the integrator always did, though a Pose2 needs no wrapping: the same
+        // arithmetic gives the same numbers)
+        let yaw = (yaw + w * dt + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
             - std::f64::consts::PI;
+        self.pose = pose2(x, y, yaw);
     }
 }
 
@@ -76,9 +79,9 @@ impl WaypointDriver {
     }
 
     /// The (v, ω) command for `pose` within `lim`.
-    pub fn command(&mut self, pose: Pose, lim: &RobotProfile) -> (f64, f64) {
+    pub fn command(&mut self, pose: &Pose2, lim: &RobotProfile) -> (f64, f64) {
         while let Some(w) = self.waypoints.get(self.next) {
-            if (w[0] - pose.x).hypot(w[1] - pose.y) > self.tolerance_m {
+            if (w[0] - pose.x()).hypot(w[1] - pose.y()) > self.tolerance_m {
                 break;
             }
             self.next += 1;
@@ -86,10 +89,9 @@ impl WaypointDriver {
         let Some(w) = self.waypoints.get(self.next) else {
             return (0.0, 0.0);
         };
-        let (dx, dy) = (w[0] - pose.x, w[1] - pose.y);
-        let err = (dy.atan2(dx) - pose.yaw + std::f64::consts::PI)
-            .rem_euclid(std::f64::consts::TAU)
-            - std::f64::consts::PI;
+        // the waypoint in the robot frame: its bearing there is the heading error
+        let (dx, dy) = pose.to_local(w[0], w[1]);
+        let err = dy.atan2(dx);
         let omega = (2.0 * err).clamp(-lim.max_angular_rps, lim.max_angular_rps);
         let last = self.next + 1 == self.waypoints.len();
         let dist = dx.hypot(dy);
@@ -135,33 +137,25 @@ mod tests {
     #[test]
     fn accelerates_within_limits_and_drives_straight() {
         let lim = lim();
-        let mut b = Base::at(Pose {
-            x: 0.0,
-            y: 0.0,
-            yaw: 0.0,
-        });
+        let mut b = Base::at(pose2(0.0, 0.0, 0.0));
         b.step(2.0, 0.0, 0.5, &lim);
         assert!((b.v - 0.25).abs() < 1e-9, "accel-limited: {}", b.v);
         for _ in 0..100 {
             b.step(2.0, 0.0, 0.1, &lim);
         }
         assert!((b.v - 0.5).abs() < 1e-9, "speed-limited: {}", b.v);
-        assert!(b.pose.y.abs() < 1e-9 && b.pose.x > 4.0);
+        assert!(b.pose.y().abs() < 1e-9 && b.pose.x() > 4.0);
     }
 
     #[test]
     fn turns_in_place() {
         let lim = lim();
-        let mut b = Base::at(Pose {
-            x: 1.0,
-            y: 1.0,
-            yaw: 0.0,
-        });
+        let mut b = Base::at(pose2(1.0, 1.0, 0.0));
         for _ in 0..1000 {
             b.step(0.0, 1.0, 0.001, &lim);
         }
-        assert!((b.pose.x - 1.0).abs() < 1e-9 && (b.pose.y - 1.0).abs() < 1e-9);
+        assert!((b.pose.x() - 1.0).abs() < 1e-9 && (b.pose.y() - 1.0).abs() < 1e-9);
         // 0.5 s to reach 1 rad/s (0.25 rad), then 0.5 s at 1 rad/s
-        assert!((b.pose.yaw - 0.75).abs() < 1e-2, "{}", b.pose.yaw);
+        assert!((b.pose.yaw() - 0.75).abs() < 1e-2, "{}", b.pose.yaw());
     }
 }

@@ -6,7 +6,8 @@
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
-use crate::Pose;
+use mimnav_shared::pose::{Pose2, Pose2Ext};
+
 use crate::geometry::footprint_distance;
 use crate::world::Scene;
 
@@ -20,17 +21,15 @@ fn rank(class: u8) -> u8 {
 }
 
 /// Fills `out` (resized to the grid) with the true class of every cell of `grid` around `pose`.
-pub fn truth_grid(scene: &Scene, pose: Pose, grid: GridSpec, out: &mut Vec<u8>) {
+pub fn truth_grid(scene: &Scene, pose: &Pose2, grid: GridSpec, out: &mut Vec<u8>) {
     out.clear();
     out.resize(grid.len(), cell_class::FREE);
-    let (s, c) = pose.yaw.sin_cos();
     let half = f64::from(grid.cell_m) * 0.5;
     let extent = f64::from(grid.half_extent_m());
     for obj in &scene.objects {
         let (centre, radius) = obj.bound;
         // the object's bounding circle in the robot frame
-        let (dx, dy) = (centre[0] - pose.x, centre[1] - pose.y);
-        let (rx, ry) = (c * dx + s * dy, -s * dx + c * dy);
+        let (rx, ry) = pose.to_local(centre[0], centre[1]);
         let reach = radius + half + obj.truth_margin_m;
         if rx + reach < -extent
             || rx - reach > extent
@@ -54,9 +53,7 @@ pub fn truth_grid(scene: &Scene, pose: Pose, grid: GridSpec, out: &mut Vec<u8>) 
                     continue;
                 }
                 let (x, y) = grid.center_of(r, col);
-                let (x, y) = (f64::from(x), f64::from(y));
-                let wx = pose.x + c * x - s * y;
-                let wy = pose.y + s * x + c * y;
+                let (wx, wy) = pose.to_fixed(f64::from(x), f64::from(y));
                 // a hair over half a cell, so a sheet lying exactly on a cell border marks the
                 // cells on both sides rather than neither
                 if footprint_distance(&obj.shape, [wx, wy]) <= half + obj.truth_margin_m + 1e-6 {

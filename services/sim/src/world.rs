@@ -38,6 +38,7 @@
 use std::path::Path;
 
 use mimnav_shared::config::{Checks, Invalid};
+use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::cell_class;
 use serde::Deserialize;
 
@@ -433,17 +434,13 @@ pub struct Scene {
 /// ranges by 3 cm, one standard deviation).
 pub const CURTAIN_SWAY_M: f64 = 0.06;
 
+/// The corners of a `size` box centred at `center` and turned by `yaw_deg`, counter-clockwise.
 fn rect(center: [f64; 2], size: [f64; 2], yaw_deg: f64) -> Vec<[f64; 2]> {
-    let (s, c) = yaw_deg.to_radians().sin_cos();
+    let pose = pose2(center[0], center[1], yaw_deg.to_radians());
     let (hx, hy) = (size[0] / 2.0, size[1] / 2.0);
     [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]
         .iter()
-        .map(|p| {
-            [
-                center[0] + c * p[0] - s * p[1],
-                center[1] + s * p[0] + c * p[1],
-            ]
-        })
+        .map(|p| pose.to_fixed(p[0], p[1]).into())
         .collect()
 }
 
