@@ -8,7 +8,7 @@
 //! `foliage.carry_scans = 0`) the scan is classified as the paper does, with no earlier scan
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
-use mimnav_shared::config::{Config, Invalid};
+use mimnav_shared::config::{Config, Invalid, seconds_ns};
 use mimnav_shared::pose::{
     LidarMount, MountTransform, NonFiniteOdometry, Pose2, check_odometry, pose2,
 };
@@ -94,7 +94,7 @@ impl ScanStep {
 
     /// The step of the config's `[foliage]` (and `robot.mount`).
     pub fn from_config(config: &Config) -> Result<Self, StepError> {
-        let step = ScanStep::new(config.foliage, (config.foliage.odom_max_age_s * 1e9) as u64)?;
+        let step = ScanStep::new(config.foliage, seconds_ns(config.foliage.odom_max_age_s))?;
         Ok(step.with_mount(&config.robot.mount))
     }
 

@@ -47,7 +47,9 @@ pub mod render;
 pub mod score;
 pub mod step;
 
-use mimnav_shared::config::{Config, LayerConfig, LayerUnit, MapperConfig, RobotProfile};
+use mimnav_shared::config::{
+    Config, LayerConfig, LayerUnit, MapperConfig, RobotProfile, seconds_ns,
+};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{Point, cell_class, return_type};
 
@@ -86,17 +88,17 @@ impl MapperParams {
 
     /// How long kept glass is remembered (`mapper.glass_memory_s`), ns.
     pub fn glass_memory_ns(&self) -> u64 {
-        ns(self.mapper.glass_memory_s)
+        seconds_ns(self.mapper.glass_memory_s)
     }
 
     /// How long kept surface cells are remembered (`mapper.surface_memory_s`), ns; 0: not kept.
     pub fn surface_memory_ns(&self) -> u64 {
-        ns(self.mapper.surface_memory_s)
+        seconds_ns(self.mapper.surface_memory_s)
     }
 
     /// How long kept tall cells are remembered (`mapper.tall_memory_s`), ns; 0: not kept.
     pub fn tall_memory_ns(&self) -> u64 {
-        ns(self.mapper.tall_memory_s)
+        seconds_ns(self.mapper.tall_memory_s)
     }
 }
 
@@ -104,11 +106,6 @@ impl Default for MapperParams {
     fn default() -> Self {
         MapperParams::from_config(&Config::default())
     }
-}
-
-/// Seconds as ns (truncated).
-fn ns(s: f64) -> u64 {
-    (s * 1e9) as u64
 }
 
 /// A count of returns as the per-cell evidence counts them (saturating at `u16::MAX`).

@@ -11,7 +11,7 @@
 //! - a message with a non-finite number is refused where it arrives ([`MapStep::odom`]) and never
 //!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
 
-use mimnav_shared::config::Config;
+use mimnav_shared::config::{Config, seconds_ns};
 use mimnav_shared::pose::{LidarMount, MountTransform, NonFiniteOdometry, check_odometry, pose2};
 use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
 
@@ -67,7 +67,7 @@ impl MapStep {
     pub fn from_config(config: &Config) -> Self {
         MapStep::new(
             MapperParams::from_config(config),
-            (config.mapper.odom_max_age_s * 1e9) as u64,
+            seconds_ns(config.mapper.odom_max_age_s),
         )
         .with_mount(&config.robot.mount)
     }

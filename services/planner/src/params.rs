@@ -2,7 +2,7 @@
 //! the command's validity) and the passable cost of `[mapper]`, held as the config has them.
 //! The values the planner needs in other units are methods here, written once.
 
-use mimnav_shared::config::{Config, PlannerConfig, RobotProfile};
+use mimnav_shared::config::{Config, PlannerConfig, RobotProfile, seconds_ns};
 
 /// Everything the planner and the service's step around it ([`crate::pilot`]) are set by.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,27 +43,27 @@ impl PlannerParams {
 
     /// A map older than this is stale (`planner.map_max_age_s`), ns.
     pub fn map_max_age_ns(&self) -> u64 {
-        ns(self.planner.map_max_age_s)
+        seconds_ns(self.planner.map_max_age_s)
     }
 
     /// Odometry older than this is stale (`planner.odom_max_age_s`), ns.
     pub fn odom_max_age_ns(&self) -> u64 {
-        ns(self.planner.odom_max_age_s)
+        seconds_ns(self.planner.odom_max_age_s)
     }
 
     /// A goal older than this is dropped; 0: never (`planner.goal_max_age_s`), ns.
     pub fn goal_max_age_ns(&self) -> u64 {
-        ns(self.planner.goal_max_age_s)
+        seconds_ns(self.planner.goal_max_age_s)
     }
 
     /// A foliage verdict older than this is ignored (`planner.foliage_max_age_s`), ns.
     pub fn foliage_max_age_ns(&self) -> u64 {
-        ns(self.planner.foliage_max_age_s)
+        seconds_ns(self.planner.foliage_max_age_s)
     }
 
     /// How long a command is valid after it is sent (`robot.command_validity_s`), ns.
     pub fn command_validity_ns(&self) -> u64 {
-        ns(self.robot.command_validity_s)
+        seconds_ns(self.robot.command_validity_s)
     }
 }
 
@@ -72,9 +72,4 @@ impl Default for PlannerParams {
     fn default() -> Self {
         PlannerParams::from_config(&Config::default())
     }
-}
-
-/// Seconds as ns (truncated).
-fn ns(s: f64) -> u64 {
-    (s * 1e9) as u64
 }

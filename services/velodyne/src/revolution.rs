@@ -11,7 +11,7 @@
 //! configured capacity, or when the return mode or product changes; the header's `cut_reason`
 //! says which.
 
-use mimnav_shared::config::VelodyneConfig;
+use mimnav_shared::config::{VelodyneConfig, seconds_ns};
 use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason};
 
 use crate::decode::{Decoder, PacketCounts};
@@ -52,7 +52,7 @@ impl AssemblerConfig {
         let max_duration_s = 1.5 * 60.0 / v.rpm;
         AssemblerConfig {
             velodyne: v.clone(),
-            max_duration_ns: (max_duration_s * 1e9) as u64,
+            max_duration_ns: seconds_ns(max_duration_s),
             max_points: max_points_per_revolution(v.rpm, max_duration_s),
         }
     }

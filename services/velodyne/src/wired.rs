@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use mimnav_shared::config::Config;
+use mimnav_shared::config::{Config, seconds_ns};
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, ValuePublisher};
 use mimnav_shared::service::{Health, Service};
 use mimnav_shared::topics::RawPacket;
@@ -64,12 +64,7 @@ pub fn replay(
     let v = &config.velodyne;
     let path = v.pcap.clone().context("velodyne.pcap is not set")?;
     let speed = (!v.replay_fast).then_some(v.replay_speed);
-    let mut replay = Replay::open(
-        &path,
-        speed,
-        (v.replay_max_gap_s * 1e9) as u64,
-        v.replay_loop,
-    )?;
+    let mut replay = Replay::open(&path, speed, seconds_ns(v.replay_max_gap_s), v.replay_loop)?;
     // READY=1 once: it resets the manager's ping clock without a WATCHDOG=1, so sending it on
     // every pass of a looped replay let the watchdog kill the driver
     h.sd.ready(&format!("replaying {}", path.display()));

@@ -49,6 +49,12 @@ use serde::Deserialize;
 use serde::de::DeserializeOwned;
 
 pub use check::{Allowed, Checks, Invalid, ParamError};
+
+/// A duration key in seconds as nanoseconds (truncated; `as` takes a negative or NaN value to 0,
+/// which validation refuses anyway).
+pub fn seconds_ns(seconds: f64) -> u64 {
+    (seconds * 1e9) as u64
+}
 pub use foliage::FoliageParams;
 pub use iceoryx2::{DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT};
 use iceoryx2::{iceoryx2_config, project_iceoryx2_defaults};
