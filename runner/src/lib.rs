@@ -36,7 +36,7 @@ use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, PointsHeader, ScanReturn, VelocityCommand,
 };
 use mimnav_sim::world::Scene;
-use mimnav_sim::{Outcome, Sim, SimSettings, Step};
+use mimnav_sim::{Outcome, Sim, SimSettings};
 use mimnav_velodyne::decode::ScanReturnSelect;
 use mimnav_velodyne::driver::{Driver, Kind};
 use mimnav_velodyne::revolution::AssemblerConfig;
@@ -240,16 +240,6 @@ impl Lockstep {
         &mut self.sim
     }
 
-    /// The mapper's step.
-    pub fn map_step(&self) -> &MapStep {
-        &self.map
-    }
-
-    /// The planner's step.
-    pub fn pilot(&self) -> &Pilot {
-        &self.pilot
-    }
-
     /// The classes of the map the last revolution made: what the planner planned on (with the
     /// foliage classifier's obstacles in the loop), else the map source's own.
     pub fn classes(&self) -> &[u8] {
@@ -274,7 +264,7 @@ impl Lockstep {
     /// One packet: casts it, moves the base, and runs the stack on it; returns what the stack
     /// did when the packet finished a revolution.
     pub fn step(&mut self) -> Result<Option<Turn>, RunnerError> {
-        let step: Step = self.sim.step();
+        let step = self.sim.step();
         self.packets += 1;
         let now = self.sim.now_ns();
         if step.completes_revolution {
