@@ -2,7 +2,10 @@
 //! the command's validity) and the passable cost of `[mapper]`, held as the config has them.
 //! The values the planner needs in other units are methods here, written once.
 
-use mimnav_shared::config::{Config, PlannerConfig, RobotProfile, seconds_ns};
+use mimnav_mapper::config::MapperConfig;
+use mimnav_shared::config::{RobotProfile, seconds_ns};
+
+use crate::config::PlannerConfig;
 
 /// Everything the planner and the service's step around it ([`crate::pilot`]) are set by.
 #[derive(Debug, Clone, PartialEq)]
@@ -13,21 +16,11 @@ pub struct PlannerParams {
     /// within, and how long a command stays valid.
     pub robot: RobotProfile,
     /// The planning cost of a passable cell, 0–255, as the mapper writes it
-    /// (`mapper.passable_cost`, [`mimnav_shared::config::MapperConfig::passable_cell_cost`]).
+    /// (`mapper.passable_cost`, [`MapperConfig::passable_cell_cost`]).
     pub passable_cost: u8,
 }
 
 impl PlannerParams {
-    /// The settings of `[planner]`, with the robot of `[robot]` and the passable cost of
-    /// `[mapper]`.
-    pub fn from_config(config: &Config) -> Self {
-        PlannerParams {
-            planner: config.planner.clone(),
-            robot: config.robot.clone(),
-            passable_cost: config.mapper.passable_cell_cost(),
-        }
-    }
-
     /// The distance kept from solid and glass cells: the footprint's radius and the margin, m.
     pub fn footprint_m(&self) -> f64 {
         self.robot.radius_m + self.planner.margin_m
@@ -69,7 +62,12 @@ impl PlannerParams {
 
 impl Default for PlannerParams {
     /// The documented defaults: a Turtlebot 2 with the authors' starting point (DESIGN §7).
+    /// `mimnav_config::Config::planner_params` builds a file's.
     fn default() -> Self {
-        PlannerParams::from_config(&Config::default())
+        PlannerParams {
+            planner: PlannerConfig::default(),
+            robot: RobotProfile::default(),
+            passable_cost: MapperConfig::default().passable_cell_cost(),
+        }
     }
 }

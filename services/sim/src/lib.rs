@@ -21,6 +21,7 @@
 #![deny(missing_docs)]
 
 pub mod blades;
+pub mod config;
 pub mod geometry;
 pub mod lidar;
 pub mod motion;
@@ -28,7 +29,9 @@ pub mod physics;
 pub mod truth;
 pub mod world;
 
-use mimnav_shared::config::{Config, RobotProfile, SimConfig};
+use mimnav_shared::config::RobotProfile;
+
+use crate::config::SimConfig;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry};
@@ -100,22 +103,15 @@ pub struct SimSettings {
     pub rpm: f64,
 }
 
-impl SimSettings {
-    /// Settings from the stack's config: the sensor is what `[velodyne]` says it is set to
-    /// (`rpm`), mounted as `[robot]` says; physics and return mode from `[sim]`.
-    pub fn from_config(config: &Config) -> Self {
-        SimSettings {
-            sim: config.sim.clone(),
-            robot: config.robot.clone(),
-            rpm: config.velodyne.rpm,
-        }
-    }
-}
-
 impl Default for SimSettings {
-    /// The documented defaults: a Turtlebot 2 with a dual-return VLP-16 at 600 rpm.
+    /// The documented defaults: a Turtlebot 2 with a dual-return VLP-16 at 600 rpm. The stack's
+    /// config builds the settings of a file (`mimnav_config::Config::sim_settings`).
     fn default() -> Self {
-        SimSettings::from_config(&Config::default())
+        SimSettings {
+            sim: SimConfig::default(),
+            robot: RobotProfile::default(),
+            rpm: mimnav_velodyne::config::VelodyneConfig::default().rpm,
+        }
     }
 }
 
