@@ -329,7 +329,7 @@ impl Sim {
         self.base
             .step(self.cmd.0, self.cmd.1, dt, &self.settings.robot);
         let p = self.base.pose;
-        if let Some(i) = motion::contact(&self.scene, p.x(), p.y(), self.settings.robot.radius_m) {
+        if let Some(i) = motion::body_contact(&self.scene, &p, &self.settings.robot.body()) {
             self.base = before;
             self.base.v = 0.0;
             self.base.omega = 0.0;
