@@ -4,16 +4,21 @@
 //! Velocity pairs (v, ω) are sampled in the window the acceleration limits allow within one
 //! control period of the current velocity; each is rolled forward over the horizon from the robot
 //! (at the map's centre, heading along x). A trajectory whose footprint — the robot's body,
-//! oriented along the rollout's heading at every step: a disc for a round robot, a cover of
-//! discs along the heading for a rectangular one ([`PlannerParams::footprint_discs`]) — comes
-//! within `planner.margin_m` of a solid or glass cell is infeasible (beyond the paper: narrow
+//! oriented along the rollout's heading at every step: a disc for a round robot, a rectangle
+//! for one with `robot.length_m` × `robot.width_m` — comes within `planner.margin_m` of a solid
+//! or glass cell is infeasible. A rectangle is tested in three tiers, each exact enough to
+//! decide when it passes: the centre's clearance against the body's reach, then a cover of
+//! discs along the heading ([`PlannerParams::footprint_discs`], a superset of the body), then
+//! points of the outline ([`PlannerParams::outline`]) — so the exact test runs only beside
+//! obstacles, where the discs' bulge would otherwise keep the body from a door or a turn it can
+//! make (beyond the paper: narrow
 //! passages stay open without ever grazing a wall); the others are scored by goal progress, speed and the obstacle
 //! cost summed along them on the planning map (eq. 12), and the cheapest wins.
 
 use mimnav_shared::grid::GridSpec;
 
 use crate::clearance::Clearance;
-use crate::params::PlannerParams;
+use crate::params::{OUTLINE_SPACING_M, PlannerParams};
 use crate::route::Route;
 
 /// What the search decided.
@@ -87,6 +92,31 @@ pub fn plan(
         .fold(0.0, f64::max)
         + f64::from(grid.cell_m);
     let round = discs.len() == 1 && discs[0].0 == 0.0;
+    // the outline's points (body frame) and the clearance each needs: the margin, and half the
+    // spacing so that no point of the outline between two samples comes closer
+    let mut outline: Vec<(f64, f64, f64)> = Vec::new();
+    for [bx, by] in p.outline() {
+        let Some(start_clear) = grid
+            .cell_of(bx as f32, by as f32)
+            .map(|(r, c)| f64::from(clear.at(r, c)))
+        else {
+            return DwaOutcome::Blocked;
+        };
+        if start_clear <= 0.0 {
+            return DwaOutcome::Blocked;
+        }
+        let need = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
+        outline.push((bx, by, need.min(start_clear)));
+    }
+    let too_close = |x: f64, y: f64, hc: f64, hs: f64| {
+        discs.iter().any(|&(dx, need)| {
+            grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
+                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
+        }) && outline.iter().any(|&(bx, by, need)| {
+            grid.cell_of((x + hc * bx - hs * by) as f32, (y + hs * bx + hc * by) as f32)
+                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
+        })
+    };
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
         if n <= 1 {
@@ -122,12 +152,7 @@ pub fn plan(
                         feasible = false;
                         break;
                     }
-                } else if centre_clear < centre_enough
-                    && discs.iter().any(|&(dx, need)| {
-                        grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
-                            .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
-                    })
-                {
+                } else if centre_clear < centre_enough && too_close(x, y, hc, hs) {
                     feasible = false;
                     break;
                 }

@@ -13,6 +13,10 @@ use crate::config::PlannerConfig;
 /// head-on; narrow passages are passed on the sides, where 3 cm is lost.
 pub const BODY_COVER_SIDE_M: f64 = 0.03;
 
+/// How far apart the dynamic window tests a rectangular body's outline where its disc cover
+/// comes too close, m; each point keeps half this more than `planner.margin_m`.
+pub const OUTLINE_SPACING_M: f64 = 0.08;
+
 /// Everything the planner and the service's step around it ([`crate::pilot`]) are set by.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerParams {
@@ -39,6 +43,12 @@ impl PlannerParams {
     /// from solid and glass cells.
     pub fn footprint_discs(&self) -> Vec<Disc> {
         self.robot.body().discs(BODY_COVER_SIDE_M)
+    }
+
+    /// Points of a rectangular body's outline [`OUTLINE_SPACING_M`] apart, in the body's frame
+    /// (none for a round body).
+    pub fn outline(&self) -> Vec<[f64; 2]> {
+        self.robot.body().outline(OUTLINE_SPACING_M)
     }
 
     /// How far from the robot a rollout's footprint can reach: the top speed over the horizon,
