@@ -92,9 +92,14 @@ pub fn plan(
         .fold(0.0, f64::max)
         + f64::from(grid.cell_m);
     let round = discs.len() == 1 && discs[0].0 == 0.0;
-    // the outline's points (body frame) and the clearance each needs: the margin, and half the
-    // spacing so that no point of the outline between two samples comes closer
-    let mut outline: Vec<(f64, f64, f64)> = Vec::new();
+    // the outline's points (body frame) and the clearance they need: the margin, and half the
+    // spacing so that no point of the outline between two samples comes closer. A body already
+    // inside the margin somewhere (in a door) may come down to half the margin anywhere: held
+    // point by point to "no closer than now", a jamb sliding along the body's side made every
+    // motion but standing still infeasible, and Spot froze in the door
+    let floor = 0.5 * pl.margin_m + 0.5 * OUTLINE_SPACING_M;
+    let mut outline: Vec<(f64, f64)> = Vec::new();
+    let mut closest = f64::INFINITY;
     for [bx, by] in p.outline() {
         let Some(start_clear) = grid
             .cell_of(bx as f32, by as f32)
@@ -105,16 +110,24 @@ pub fn plan(
         if start_clear <= 0.0 {
             return DwaOutcome::Blocked;
         }
-        let need = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
-        outline.push((bx, by, need.min(start_clear)));
+        closest = closest.min(start_clear);
+        outline.push((bx, by));
     }
+    let full = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
+    let outline_need = if closest >= full {
+        full
+    } else if closest >= floor {
+        floor
+    } else {
+        closest
+    };
     let too_close = |x: f64, y: f64, hc: f64, hs: f64| {
         discs.iter().any(|&(dx, need)| {
             grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
                 .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
-        }) && outline.iter().any(|&(bx, by, need)| {
+        }) && outline.iter().any(|&(bx, by)| {
             grid.cell_of((x + hc * bx - hs * by) as f32, (y + hs * bx + hc * by) as f32)
-                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
+                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < outline_need)
         })
     };
     let mut best: Option<(f64, f64, f64)> = None;
@@ -379,5 +392,32 @@ mod tests {
             plan(&ahead, grid, &cost, &clear, 0.3, 0.0, (4.0, 0.0), None),
             DwaOutcome::Drive { v, .. } if v > 0.25
         ));
+    }
+
+    #[test]
+    fn a_body_in_a_door_at_a_slant_drives_on_with_a_jamb_beside_it() {
+        // Spot half through a 1 m door, turned 27.5° to it (robot frame): the lower jamb
+        // 0.115 m from its right side, inside the margin. Held point by point to "no closer
+        // than now", the jamb sliding along its side made every motion but standing infeasible
+        // (it froze there in the simulator).
+        let (s, c) = 27.5f32.to_radians().sin_cos();
+        let ray = |x0: f32, y0: f32, dx: f32, dy: f32, x: f32, y: f32| {
+            let t = ((x - x0) * dx + (y - y0) * dy).max(0.0);
+            (x - x0 - t * dx).hypot(y - y0 - t * dy)
+        };
+        let (grid, classes) = map(|x, y| {
+            if ray(0.16, -0.365, -s, -c, x, y) < 0.05 || ray(0.62, 0.52, s, c, x, y) < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut clear = Clearance::default();
+        clear.compute(&classes, grid, 4.0, 5.0);
+        let cost = vec![0u8; grid.len()];
+        match plan(&spot(), grid, &cost, &clear, 0.0, 0.0, (3.25, -3.1), None) {
+            DwaOutcome::Drive { v, .. } => assert!(v > 0.05, "moves on: {v}"),
+            o => panic!("{o:?}"),
+        }
     }
 }
