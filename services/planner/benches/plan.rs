@@ -1,6 +1,7 @@
 //! Planner time per map (inflation, clearance, route and the dynamic window), one core, on the
 //! intensity maps of simulated revolutions: scenario 1 (walls and glass) and scenario 4 (grass,
-//! bushes and trees), driven along their survey routes.
+//! bushes and trees), driven along their survey routes; the Turtlebot 2 (round) with both
+//! inflations, and Spot (a rectangular body) with adaptive inflation.
 //!
 //! `cargo bench -p mimnav-planner --bench plan`
 
@@ -178,5 +179,22 @@ fn main() {
             time(world, &config, inflation, &maps);
         }
         breakdown(&config, &maps);
+    }
+    // Spot: its body is a 1.1 × 0.5 m rectangle, tested along every rollout
+    let shipped = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/mimnav.toml");
+    let spot = match Config::load(&shipped, &["robot.profile=\"spot\"".into()]) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("cannot load Spot's profile: {e}");
+            std::process::exit(1);
+        }
+    };
+    for world in [
+        "scenario1_glass_wall.toml",
+        "scenario4_grass_intertwined.toml",
+    ] {
+        let maps = maps(&spot, world);
+        time(&format!("{world}, Spot"), &spot, Inflation::Adaptive, &maps);
+        breakdown(&spot, &maps);
     }
 }
