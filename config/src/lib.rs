@@ -182,7 +182,7 @@ impl Config {
             planner: file.planner,
             foliage: file.foliage,
         };
-        config.validate().map_err(|e| err(&source, e.to_string()))?;
+        config.validate().map_err(|e| ConfigError::invalid(&source, e))?;
         Ok(config)
     }
 

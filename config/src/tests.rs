@@ -42,6 +42,13 @@ fn unknown_key_names_file_line_and_key() {
 #[test]
 fn out_of_range_names_key_and_range() {
     let e = parse("[velodyne]\nrpm = 50\n").expect_err("range");
+    assert!(
+        matches!(
+            e.invalid.as_ref().and_then(|i| i.get("velodyne.rpm")),
+            Some(ParamError::OutOfRange { value, .. }) if *value == 50.0
+        ),
+        "{e:?}"
+    );
     assert_eq!(
         e.to_string(),
         "test.toml: velodyne.rpm = 50 is out of range: allowed 300 to 1200"

@@ -51,11 +51,25 @@ pub struct ConfigError {
     pub source_name: String,
     /// What is wrong, naming the key.
     pub message: String,
+    /// The values refused, each a [`ParamError`] naming its key and what is allowed, when that
+    /// is what is wrong (not a file that cannot be read or parsed).
+    pub invalid: Option<Invalid>,
 }
 
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {}", self.source_name, self.message)
+    }
+}
+
+impl ConfigError {
+    /// The values of `source` that `invalid` refuses.
+    pub fn invalid(source: impl fmt::Display, invalid: Invalid) -> ConfigError {
+        ConfigError {
+            source_name: source.to_string(),
+            message: invalid.to_string(),
+            invalid: Some(invalid),
+        }
     }
 }
 
@@ -66,6 +80,7 @@ pub fn err(source: impl fmt::Display, message: impl Into<String>) -> ConfigError
     ConfigError {
         source_name: source.to_string(),
         message: message.into(),
+        invalid: None,
     }
 }
 
