@@ -110,6 +110,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
     );
     let reach = params.reach_m() as f32 + 2.0 * grid.cell_m;
     let mut t = [0.0f64; 4];
+    let mut all: [Vec<f64>; 4] = Default::default();
     let mut n = 0;
     for (classes, v, w, goal) in maps.iter().cycle().take(maps.len() * 20) {
         let s = Instant::now();
@@ -120,9 +121,11 @@ fn breakdown(config: &Config, maps: &[Case]) {
             params.passable_cost,
             &mut cost,
         );
+        all[0].push(s.elapsed().as_secs_f64());
         t[0] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         clear.compute(classes, grid, reach, 5.0);
+        all[1].push(s.elapsed().as_secs_f64());
         t[1] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         route.build(
@@ -137,6 +140,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
             &cost,
             (goal.0 as f32, goal.1 as f32),
         );
+        all[2].push(s.elapsed().as_secs_f64());
         t[2] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         std::hint::black_box(dwa::plan(
@@ -149,16 +153,26 @@ fn breakdown(config: &Config, maps: &[Case]) {
             *goal,
             Some(&route),
         ));
+        all[3].push(s.elapsed().as_secs_f64());
         t[3] += s.elapsed().as_secs_f64();
         n += 1;
     }
     let us = |x: f64| x * 1e6 / n as f64;
+    let p99 = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() * 99 / 100).map_or(0.0, |x| x * 1e6)
+    };
+    let [a, b, c, d] = &mut all;
     println!(
-        "  stages: inflation {:.0} µs, clearance {:.0} µs, route {:.0} µs, dynamic window {:.0} µs",
+        "  stages, mean (p99): inflation {:.0} ({:.0}) µs, clearance {:.0} ({:.0}) µs, route {:.0} ({:.0}) µs, dynamic window {:.0} ({:.0}) µs",
         us(t[0]),
+        p99(a),
         us(t[1]),
+        p99(b),
         us(t[2]),
-        us(t[3])
+        p99(c),
+        us(t[3]),
+        p99(d)
     );
 }
 

@@ -9,7 +9,9 @@
 //! or glass cell is infeasible. A rectangle is tested in three tiers, each exact enough to
 //! decide when it passes: the centre's clearance against the body's reach, then a cover of
 //! discs along the heading ([`PlannerParams::footprint_discs`], a superset of the body), then
-//! points of the outline ([`PlannerParams::outline`]) — so the exact test runs only beside
+//! the outline, walked side by side in steps as long as the clearance allows (a point with
+//! clearance c proves every point within c − need of it clear, so beside a wall the walk takes
+//! [`OUTLINE_SPACING_M`] steps and elsewhere it strides) — so the exact test runs only beside
 //! obstacles, where the discs' bulge would otherwise keep the body from a door or a turn it can
 //! make (beyond the paper: narrow
 //! passages stay open without ever grazing a wall); the others are scored by goal progress, speed and the obstacle
@@ -18,6 +20,8 @@
 use mimnav_shared::grid::GridSpec;
 
 use crate::clearance::Clearance;
+use mimnav_shared::config::Body;
+
 use crate::params::{OUTLINE_SPACING_M, PlannerParams};
 use crate::route::Route;
 
@@ -98,7 +102,6 @@ pub fn plan(
     // point by point to "no closer than now", a jamb sliding along the body's side made every
     // motion but standing still infeasible, and Spot froze in the door
     let floor = 0.5 * pl.margin_m + 0.5 * OUTLINE_SPACING_M;
-    let mut outline: Vec<(f64, f64)> = Vec::new();
     let mut closest = f64::INFINITY;
     for [bx, by] in p.outline() {
         let Some(start_clear) = grid
@@ -111,7 +114,6 @@ pub fn plan(
             return DwaOutcome::Blocked;
         }
         closest = closest.min(start_clear);
-        outline.push((bx, by));
     }
     let full = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
     let outline_need = if closest >= full {
@@ -121,14 +123,45 @@ pub fn plan(
     } else {
         closest
     };
+    // the outline's sides: a corner, the unit direction along the side, its length
+    let sides: Vec<([f64; 2], [f64; 2], f64)> = match p.robot.body() {
+        Body::Round(_) => Vec::new(),
+        Body::Rectangle { length_m, width_m } => {
+            let (hl, hw) = (0.5 * length_m, 0.5 * width_m);
+            vec![
+                ([hl, hw], [-1.0, 0.0], length_m),
+                ([-hl, hw], [0.0, -1.0], width_m),
+                ([-hl, -hw], [1.0, 0.0], length_m),
+                ([hl, -hw], [0.0, 1.0], width_m),
+            ]
+        }
+    };
+    let cell_m = f64::from(grid.cell_m);
+    // Walks each side: a point with clearance c ≥ need proves the next c − need of the side
+    // clear, and the spacing's half in `need` covers the step beyond that.
+    let outline_too_close = |x: f64, y: f64, hc: f64, hs: f64| {
+        sides.iter().any(|&(a, u, len)| {
+            let mut t = 0.0;
+            while t <= len {
+                let (bx, by) = (a[0] + u[0] * t, a[1] + u[1] * t);
+                let (wx, wy) = (x + hc * bx - hs * by, y + hs * bx + hc * by);
+                let c = grid
+                    .cell_of(wx as f32, wy as f32)
+                    .map_or(f64::INFINITY, |(r, c)| f64::from(clear.at(r, c)));
+                if c < outline_need {
+                    return true;
+                }
+                // a cell less: the clearance is a cell centre's, a point of it may be nearer
+                t += (c - outline_need - cell_m).clamp(0.0, len) + OUTLINE_SPACING_M;
+            }
+            false
+        })
+    };
     let too_close = |x: f64, y: f64, hc: f64, hs: f64| {
         discs.iter().any(|&(dx, need)| {
             grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
                 .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
-        }) && outline.iter().any(|&(bx, by)| {
-            grid.cell_of((x + hc * bx - hs * by) as f32, (y + hs * bx + hc * by) as f32)
-                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < outline_need)
-        })
+        }) && outline_too_close(x, y, hc, hs)
     };
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
