@@ -64,7 +64,7 @@ impl RobotProfile {
             r.check("robot.length_m", self.length_m, 0.1, 6.0);
             r.check("robot.width_m", self.width_m, 0.1, 6.0);
             r.require(
-                !(self.width_m > self.length_m),
+                self.width_m <= self.length_m || self.width_m.is_nan(),
                 "robot.width_m",
                 format!(
                     "robot.width_m = {} is more than robot.length_m = {}: the length is along the \
