@@ -112,7 +112,7 @@ impl Family {
                 "tall-grass fields with trunks, bushes and dark rocks hidden below the grass tops"
             }
             Family::Hedge => {
-                "one or two hedges (rows of bushes) across a walled garden, each with a gap 0.3-2 m wide"
+                "one or two hedges (rows of bushes) across a walled garden, each with a gap 0.3-2.4 m wide"
             }
         }
     }
@@ -399,6 +399,16 @@ enum Style {
     Mullions,
 }
 
+impl Style {
+    fn name(self) -> &'static str {
+        match self {
+            Style::Frameless => "frameless",
+            Style::Framed => "framed",
+            Style::Mullions => "mullioned",
+        }
+    }
+}
+
 struct Gen {
     rng: fastrand::Rng,
 }
@@ -503,7 +513,7 @@ impl Gen {
         let width = if self.chance(0.1) {
             self.u(0.25, 0.45)
         } else {
-            self.u(0.5, 2.2)
+            self.u(0.6, 2.6)
         };
         let opening = (!self.chance(0.15)).then(|| {
             let c = self.u(y0 + width / 2.0 + 0.2, y1 - width / 2.0 - 0.2);
@@ -524,14 +534,14 @@ impl Gen {
         };
         w.time_limit_s = time_limit(via);
         w.description = format!(
-            "A {style:?} glass partition at {:.0} deg to the approach; {}.",
+            "A {} glass partition at {:.0} deg to the approach; {}.",
+            style.name(),
             theta.to_degrees().abs(),
             match opening {
                 Some((a, b)) => format!("an opening {:.2} m wide", b - a),
                 None => "no opening".into(),
             }
-        )
-        .to_lowercase();
+        );
         // the approach along +x, the start at the origin
         let heading = (goal[1] - s[1]).atan2(goal[0] - s[0]);
         transform(&mut w, 0.0, [ds, 0.0]);
@@ -584,7 +594,8 @@ impl Gen {
         w.survey = vec![[xf - 1.0, offset], [xf + 1.0, offset], goal];
         w.time_limit_s = time_limit(dist([0.0, 0.0], door) + dist(door, goal));
         w.description = format!(
-            "A {style:?} glass shop front {xf:.1} m ahead, the goal behind it; the door {width:.2} m wide, {:.1} m off the line{}.",
+            "A {} glass shop front {xf:.1} m ahead, the goal behind it; the door {width:.2} m wide, {:.1} m off the line{}.",
+            style.name(),
             offset.abs(),
             if closed { ", shut (glass)" } else { "" }
         );
@@ -643,7 +654,8 @@ impl Gen {
             w.survey = vec![[dc, 0.0], door, goal];
             w.time_limit_s = time_limit(dist(start, [dc, 0.0]) + dist([dc, 0.0], door) + dist(door, goal));
             w.description = format!(
-                "A corridor {cw:.2} m wide, glass on {} side{}; the goal in the room behind the glass, through a door {dw:.2} m wide {dc:.1} m along{}.",
+                "A corridor {cw:.2} m wide, {} glass on {} side{}; the goal in the room behind the glass, through a door {dw:.2} m wide {dc:.1} m along{}.",
+                style.name(),
                 if both_glass { "both" } else { "one" },
                 if both_glass { "s" } else { "" },
                 if closed { ", shut" } else { "" }
@@ -665,7 +677,8 @@ impl Gen {
             w.survey = vec![[xa, 0.0], [xb, 0.0], goal];
             w.time_limit_s = time_limit(dist(start, [xb, 0.0]) + dist([xb, 0.0], goal));
             w.description = format!(
-                "A corridor {cw:.2} m wide and {len:.1} m long, glass on {} side{}; the goal beyond its end, {:.1} m off its axis.",
+                "A corridor {cw:.2} m wide and {len:.1} m long, {} glass on {} side{}; the goal beyond its end, {:.1} m off its axis.",
+                style.name(),
                 if both_glass { "both" } else { "one" },
                 if both_glass { "s" } else { "" },
                 goal[1].abs()
@@ -982,7 +995,7 @@ impl Gen {
             let r = self.u(0.35, 0.5);
             let height = self.u(1.0, 1.8);
             let reflectivity = self.u(35.0, 55.0).round();
-            let gap = self.u(0.3, 2.0);
+            let gap = self.u(0.3, 2.4);
             let gc = self.u(-half + gap / 2.0 + r + 0.3, half - gap / 2.0 - r - 0.3);
             gaps.push(gap);
             let (g0, g1) = (gc - gap / 2.0, gc + gap / 2.0);
