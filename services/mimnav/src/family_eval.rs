@@ -13,6 +13,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use mimnav_shared::config::Config;
+use mimnav_sim::generate::Family;
 use mimnav_sim::world::{Scene, WorldFile};
 
 use crate::eval::{Ending, EvalArgs, Method, run_episode};
@@ -123,6 +124,13 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             order.push(w.family.clone());
         }
     }
+    // the families in table order, then the others as met
+    order.sort_by_key(|f| {
+        Family::ALL
+            .iter()
+            .position(|x| x.name() == f)
+            .unwrap_or(Family::ALL.len())
+    });
     for (&(w, m, _), e) in jobs.iter().zip(&episodes) {
         let world = &worlds[w];
         let f = order.iter().position(|x| *x == world.family).unwrap_or(0);
