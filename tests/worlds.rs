@@ -92,7 +92,13 @@ fn generated_sets_are_byte_identical_for_a_seed_well_formed_and_record_their_ori
     assert!(differ >= Family::ALL.len(), "{differ}");
     // seeds are split: a report seed is refused without --split report
     let out = mimnav(&[
-        "worlds", "generate", "--family", "grass", "--seed", "10000", "--out",
+        "worlds",
+        "generate",
+        "--family",
+        "grass",
+        "--seed",
+        "10000",
+        "--out",
         root.join("d").to_str().expect("utf-8"),
     ]);
     assert_eq!(out.status.code(), Some(1));
@@ -101,7 +107,14 @@ fn generated_sets_are_byte_identical_for_a_seed_well_formed_and_record_their_ori
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = mimnav(&["worlds", "generate", "--family", "glass", "--out", "/nonexistent"]);
+    let out = mimnav(&[
+        "worlds",
+        "generate",
+        "--family",
+        "glass",
+        "--out",
+        "/nonexistent",
+    ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("glass-partition"));
     let _ = std::fs::remove_dir_all(&root);
 }
@@ -153,7 +166,15 @@ fn eval_over_a_generated_set_reports_every_family() {
     let root = scratch("eval");
     let set = root.join("set");
     ok(&mimnav(&[
-        "worlds", "generate", "--family", "all", "--count", "1", "--seed", "3", "--out",
+        "worlds",
+        "generate",
+        "--family",
+        "all",
+        "--count",
+        "1",
+        "--seed",
+        "3",
+        "--out",
         set.to_str().expect("utf-8"),
     ]));
     // a hand-made world the Turtlebot cannot pass: scored on stopping without contact
@@ -194,7 +215,11 @@ fn eval_over_a_generated_set_reports_every_family() {
     assert_eq!(families, want, "{out}");
     for r in &rows {
         assert_eq!(n(r, "episodes"), 1, "{r}");
-        assert_eq!(n(r, "passable_episodes") + n(r, "impassable_episodes"), 1, "{r}");
+        assert_eq!(
+            n(r, "passable_episodes") + n(r, "impassable_episodes"),
+            1,
+            "{r}"
+        );
         assert_eq!(
             n(r, "successes"),
             n(r, "reached") + n(r, "stopped_without_contact"),

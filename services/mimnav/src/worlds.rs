@@ -105,7 +105,10 @@ impl SetArgs {
     pub fn generate(&self) -> Result<Vec<WorldFile>> {
         let seed = self.seed()?;
         let families = self.families()?;
-        anyhow::ensure!(!families.is_empty(), "name a family: --family NAME or --family all");
+        anyhow::ensure!(
+            !families.is_empty(),
+            "name a family: --family NAME or --family all"
+        );
         Ok(families
             .into_iter()
             .flat_map(|f| generate::generate_set(f, seed, self.count))
@@ -146,7 +149,9 @@ enum WorldsCommand {
 pub fn toml_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut v = Vec::new();
     for e in std::fs::read_dir(dir).with_context(|| format!("cannot read {}", dir.display()))? {
-        let p = e.with_context(|| format!("cannot read {}", dir.display()))?.path();
+        let p = e
+            .with_context(|| format!("cannot read {}", dir.display()))?
+            .path();
         if p.extension().is_some_and(|x| x == "toml") {
             v.push(p);
         }
@@ -167,7 +172,10 @@ pub fn passable(config: &Config, scene: &Scene) -> reach::Reach {
 }
 
 fn robot_label(config: &Config) -> String {
-    format!("{} (radius {:.2} m)", config.robot.name, config.robot.radius_m)
+    format!(
+        "{} (radius {:.2} m)",
+        config.robot.name, config.robot.radius_m
+    )
 }
 
 fn verdict(r: &reach::Reach) -> &'static str {

@@ -245,7 +245,11 @@ fn r3p(p: &mut [f64; 2]) {
 
 /// Millimetres and tenths of a degree in the file: readable, and the same bytes everywhere.
 fn round_world(w: &mut WorldFile) {
-    w.start = [r3(w.start[0]), r3(w.start[1]), (w.start[2] * 10.0).round() / 10.0];
+    w.start = [
+        r3(w.start[0]),
+        r3(w.start[1]),
+        (w.start[2] * 10.0).round() / 10.0,
+    ];
     r3p(&mut w.goal);
     w.time_limit_s = w.time_limit_s.round();
     w.ground.reflectivity = w.ground.reflectivity.round();
@@ -619,7 +623,12 @@ impl Gen {
         let glass_side = self.sign();
         if into_room {
             let x1 = xb;
-            let mut w = empty(String::new(), [start[0], start[1], self.u(-15.0, 15.0)], [0.0; 2], 0.0);
+            let mut w = empty(
+                String::new(),
+                [start[0], start[1], self.u(-15.0, 15.0)],
+                [0.0; 2],
+                0.0,
+            );
             self.room(&mut w, x0, -half, x1, half);
             // the lobby's wall: the side rooms are reached only through the corridor's sides
             w.wall.push(wall([xa, cw / 2.0], [xa, half]));
@@ -652,7 +661,8 @@ impl Gen {
             w.goal = goal;
             let door = [dc, glass_side * cw / 2.0];
             w.survey = vec![[dc, 0.0], door, goal];
-            w.time_limit_s = time_limit(dist(start, [dc, 0.0]) + dist([dc, 0.0], door) + dist(door, goal));
+            w.time_limit_s =
+                time_limit(dist(start, [dc, 0.0]) + dist([dc, 0.0], door) + dist(door, goal));
             w.description = format!(
                 "A corridor {cw:.2} m wide, {} glass on {} side{}; the goal in the room behind the glass, through a door {dw:.2} m wide {dc:.1} m along{}.",
                 style.name(),
@@ -663,8 +673,16 @@ impl Gen {
             w
         } else {
             let x1 = xb + self.u(2.5, 4.0);
-            let goal = [xb + self.u(1.2, x1 - xb - 0.8), self.sign() * self.u(0.8, half - 0.8)];
-            let mut w = empty(String::new(), [start[0], start[1], self.u(-15.0, 15.0)], goal, 0.0);
+            let goal = [
+                xb + self.u(1.2, x1 - xb - 0.8),
+                self.sign() * self.u(0.8, half - 0.8),
+            ];
+            let mut w = empty(
+                String::new(),
+                [start[0], start[1], self.u(-15.0, 15.0)],
+                goal,
+                0.0,
+            );
             self.room(&mut w, x0, -half, x1, half);
             for side in [glass_side, -glass_side] {
                 let y = side * cw / 2.0;
@@ -688,7 +706,15 @@ impl Gen {
     }
 
     /// [`Gen::glass_line`] along y = `y` from x = `x0` to `x1`.
-    fn glass_line_x(&mut self, w: &mut WorldFile, y: f64, x0: f64, x1: f64, style: Style, top: f64) {
+    fn glass_line_x(
+        &mut self,
+        w: &mut WorldFile,
+        y: f64,
+        x0: f64,
+        x1: f64,
+        style: Style,
+        top: f64,
+    ) {
         let mut line = empty(String::new(), [0.0; 3], [0.0; 2], 0.0);
         self.glass_line(&mut line, 0.0, x0, x1, style, top);
         // x = 0 along y → y = `y` along x: turn by −90° (x' = y, y' = −x) and mirror
@@ -834,14 +860,20 @@ impl Gen {
         if self.chance(0.5) {
             // a door in a wall across the room
             let dw = self.u(0.8, 1.6);
-            let dc = self.u(-half + dw / 2.0 + 0.5, half - dw / 2.0 - 0.5).clamp(-2.5, 2.5);
+            let dc = self
+                .u(-half + dw / 2.0 + 0.5, half - dw / 2.0 - 0.5)
+                .clamp(-2.5, 2.5);
             let (a, b) = (dc - dw / 2.0, dc + dw / 2.0);
             w.wall.push(wall([xp, -half], [xp, a]));
             w.curtain.push(curtain([xp, a], [xp, b]));
             if self.chance(0.3) {
                 // glass beside the door, then wall
                 let side = self.sign();
-                let (g0, g1) = if side > 0.0 { (b, (b + 2.0).min(half)) } else { ((a - 2.0).max(-half), a) };
+                let (g0, g1) = if side > 0.0 {
+                    (b, (b + 2.0).min(half))
+                } else {
+                    ((a - 2.0).max(-half), a)
+                };
                 w.glass.push(Glass {
                     from: [xp, g0],
                     to: [xp, g1],
@@ -853,7 +885,8 @@ impl Gen {
                 } else {
                     w.wall.push(wall([xp, b], [xp, half]));
                     // the glass sits below the door: the lower wall stops at the glass
-                    w.wall.retain(|o| !(o.from == [xp, -half] && o.to == [xp, a]));
+                    w.wall
+                        .retain(|o| !(o.from == [xp, -half] && o.to == [xp, a]));
                     w.wall.push(wall([xp, -half], [xp, g0]));
                 }
             } else {
@@ -905,7 +938,10 @@ impl Gen {
             let (s, c) = yaw.to_radians().abs().sin_cos();
             // the patch's nearest edge at least 1.5 m ahead of the start
             let reach = 0.5 * (size[0] * c + size[1] * s);
-            let center = [self.u(1.5 + reach, (1.5 + reach).max(gx + 1.0)), self.u(-2.0, 2.0)];
+            let center = [
+                self.u(1.5 + reach, (1.5 + reach).max(gx + 1.0)),
+                self.u(-2.0, 2.0),
+            ];
             patches.push((center, size));
             w.grass.push(Grass {
                 center,
@@ -1034,7 +1070,10 @@ impl Gen {
         w.description = format!(
             "{} hedge(s) across a walled garden, gaps {} m wide.",
             xs.len(),
-            gaps.iter().map(|g| format!("{g:.2}")).collect::<Vec<_>>().join(" and ")
+            gaps.iter()
+                .map(|g| format!("{g:.2}"))
+                .collect::<Vec<_>>()
+                .join(" and ")
         );
         w
     }

@@ -134,7 +134,10 @@ mod tests {
     fn a_gap_narrower_than_the_robot_is_impassable_a_wider_one_passable() {
         for radius in [0.2, 0.6] {
             let narrow = reach(&gap_world(2.0 * radius - 0.03, ""), radius, 0.3, CELL_M);
-            assert!(!narrow.reachable && !narrow.start_blocked, "{radius}: {narrow:?}");
+            assert!(
+                !narrow.reachable && !narrow.start_blocked,
+                "{radius}: {narrow:?}"
+            );
             let wide = reach(&gap_world(2.0 * radius + 0.03, ""), radius, 0.3, CELL_M);
             assert!(wide.reachable, "{radius}: {wide:?}");
         }
