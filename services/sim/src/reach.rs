@@ -13,9 +13,15 @@
 //! cell (default [`CELL_M`], 2 cm) is found; one narrower than the robot never is. The world
 //! need not be closed: the fill runs over the extent of the objects plus a margin wide enough for
 //! the robot to go round all of them.
+//!
+//! A body that is not round (Spot's 1.1 × 0.5 m rectangle) depends on its heading: [`reach_by`]
+//! fills poses (x, y, heading) instead, with the body's own contact test as a closure, and tests
+//! it only where the heading matters (between the body's half width and its enclosing radius
+//! from the nearest object).
 
 use std::collections::VecDeque;
 
+use crate::geometry::footprint_distance;
 use crate::motion::contact;
 use crate::world::Scene;
 
@@ -29,16 +35,58 @@ pub struct Reach {
     pub reachable: bool,
     /// The start itself touches an object.
     pub start_blocked: bool,
-    /// Grid centres tested.
+    /// Poses tested.
     pub tested: usize,
 }
 
-/// Whether a robot of `radius_m` can drive from `scene`'s start to within `goal_tolerance_m` of
-/// its goal without contact, on a grid of `cell_m` (see the module doc).
+/// The robot's footprint as the flood fill needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    /// A pose whose centre is closer than this to a blocking object always touches it (a
+    /// circle's radius; a rectangle's half width), m.
+    pub inner_m: f64,
+    /// A pose whose centre is at least this far from every blocking object never touches one
+    /// (a circle's radius; a rectangle's enclosing radius), m.
+    pub outer_m: f64,
+    /// Headings tested, evenly spaced from the start's: 1 for a round robot (the heading does
+    /// not matter); for a rectangle, e.g. 72 (5° apart).
+    pub headings: usize,
+}
+
+/// Whether a round robot of `radius_m` can drive from `scene`'s start to within
+/// `goal_tolerance_m` of its goal without contact, on a grid of `cell_m`: [`reach_by`] with the
+/// simulator's [`contact`].
 pub fn reach(scene: &Scene, radius_m: f64, goal_tolerance_m: f64, cell_m: f64) -> Reach {
+    let round = Footprint {
+        inner_m: radius_m,
+        outer_m: radius_m,
+        headings: 1,
+    };
+    reach_by(scene, round, goal_tolerance_m, cell_m, |x, y, _| {
+        contact(scene, x, y, radius_m).is_some()
+    })
+}
+
+/// Whether the start and the goal circle are connected in the free poses (x, y, heading) of a
+/// robot whose contact test is `blocked(x, y, yaw)` — the simulator's own (for a rectangular
+/// body, its body contact at that pose). With one heading the search is over positions only and
+/// `blocked` decides every one. With several, a position closer than `footprint.inner_m` to a
+/// blocking object is blocked at every heading and one at least `footprint.outer_m` from all is
+/// free at every heading, and `blocked` decides only between the two. A robot that turns on the
+/// spot and drives forward and back can follow any path through free poses, so connectivity is
+/// the answer; the grid makes it exact to a cell and half a heading step.
+pub fn reach_by(
+    scene: &Scene,
+    footprint: Footprint,
+    goal_tolerance_m: f64,
+    cell_m: f64,
+    blocked: impl Fn(f64, f64, f64) -> bool,
+) -> Reach {
     let start = [scene.start[0], scene.start[1]];
+    let yaw0 = scene.start[2];
     let goal = scene.goal;
-    if contact(scene, start[0], start[1], radius_m).is_some() {
+    let k_n = footprint.headings.max(1);
+    if blocked(start[0], start[1], yaw0) {
         return Reach {
             reachable: false,
             start_blocked: true,
@@ -57,23 +105,53 @@ pub fn reach(scene: &Scene, radius_m: f64, goal_tolerance_m: f64, cell_m: f64) -
     for o in &scene.objects {
         grow(o.bound.0[0], o.bound.0[1], o.bound.1);
     }
-    let margin = 2.0 * radius_m + 4.0 * cell_m + 0.1;
     let cell = cell_m.max(1e-3);
+    let margin = 2.0 * footprint.outer_m + 4.0 * cell + 0.1;
     // grid indices relative to the start's cell, i = (x − start) / cell
     let i0 = ((x0 - margin - start[0]) / cell).floor() as i64;
     let i1 = ((x1 + margin - start[0]) / cell).ceil() as i64;
     let j0 = ((y0 - margin - start[1]) / cell).floor() as i64;
     let j1 = ((y1 + margin - start[1]) / cell).ceil() as i64;
     let (w, h) = ((i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
-    // 0 untested, 1 free and queued, 2 blocked
-    let mut state = vec![0u8; w * h];
-    let at = |i: i64, j: i64| (j - j0) as usize * w + (i - i0) as usize;
+    // one bit per pose: reached (free and queued) or found blocked
+    let mut seen = vec![0u64; (w * h * k_n).div_ceil(64)];
+    let at = |i: i64, j: i64, k: usize| ((j - j0) as usize * w + (i - i0) as usize) * k_n + k;
     let centre = |i: i64, j: i64| [start[0] + i as f64 * cell, start[1] + j as f64 * cell];
+    let yaw = |k: usize| yaw0 + std::f64::consts::TAU * k as f64 / k_n as f64;
+    // with several headings: the clearance of each position, NaN until needed
+    let mut clearance = if k_n > 1 {
+        vec![f32::NAN; w * h]
+    } else {
+        Vec::new()
+    };
+    let mut clear_at = |i: i64, j: i64| -> f64 {
+        let c = &mut clearance[(j - j0) as usize * w + (i - i0) as usize];
+        if c.is_nan() {
+            let p = centre(i, j);
+            *c = scene
+                .objects
+                .iter()
+                .filter(|o| o.blocks)
+                .filter(|o| {
+                    (o.bound.0[0] - p[0]).hypot(o.bound.0[1] - p[1])
+                        <= o.bound.1 + footprint.outer_m
+                })
+                .map(|o| footprint_distance(&o.shape, p))
+                .fold(f64::INFINITY, f64::min) as f32;
+        }
+        f64::from(*c)
+    };
+    let mut mark = |k: usize| {
+        let (word, bit) = (k / 64, k % 64);
+        let was = seen[word] >> bit & 1 == 1;
+        seen[word] |= 1 << bit;
+        was
+    };
     let mut queue = VecDeque::new();
-    state[at(0, 0)] = 1;
-    queue.push_back((0i64, 0i64));
+    mark(at(0, 0, 0));
+    queue.push_back((0i64, 0i64, 0usize));
     let mut tested = 1;
-    while let Some((i, j)) = queue.pop_front() {
+    while let Some((i, j, k)) = queue.pop_front() {
         let p = centre(i, j);
         if (p[0] - goal[0]).hypot(p[1] - goal[1]) <= goal_tolerance_m {
             return Reach {
@@ -82,22 +160,29 @@ pub fn reach(scene: &Scene, radius_m: f64, goal_tolerance_m: f64, cell_m: f64) -
                 tested,
             };
         }
-        for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
-            let (ni, nj) = (i + di, j + dj);
-            if ni < i0 || ni > i1 || nj < j0 || nj > j1 {
-                continue;
-            }
-            let k = at(ni, nj);
-            if state[k] != 0 {
+        let turns = if k_n > 1 {
+            [(0, 0, 1), (0, 0, k_n - 1)]
+        } else {
+            [(0, 0, 0); 2]
+        };
+        for (di, dj, dk) in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0)]
+            .into_iter()
+            .chain(turns.into_iter().filter(|t| t.2 != 0))
+        {
+            let (ni, nj, nk) = (i + di, j + dj, (k + dk) % k_n);
+            if ni < i0 || ni > i1 || nj < j0 || nj > j1 || mark(at(ni, nj, nk)) {
                 continue;
             }
             tested += 1;
             let q = centre(ni, nj);
-            if contact(scene, q[0], q[1], radius_m).is_some() {
-                state[k] = 2;
+            let free = if k_n == 1 {
+                !blocked(q[0], q[1], yaw(nk))
             } else {
-                state[k] = 1;
-                queue.push_back((ni, nj));
+                let d = clear_at(ni, nj);
+                d >= footprint.outer_m || (d >= footprint.inner_m && !blocked(q[0], q[1], yaw(nk)))
+            };
+            if free {
+                queue.push_back((ni, nj, nk));
             }
         }
     }
@@ -164,6 +249,73 @@ mod tests {
                     [[wall]]\nfrom = [3.0, -2.0]\nto = [3.0, 2.0]\n";
         let scene = WorldFile::parse(text, "w").expect("valid").compile();
         assert!(reach(&scene, 0.6, 0.3, 0.02).reachable);
+    }
+
+    /// A `length` × `width` rectangle at (x, y, yaw) touches a blocking object: any point of
+    /// its outline (5 cm apart) within 1 cm of one — a stand-in for the simulator's body test.
+    fn rectangle(scene: &Scene, length: f64, width: f64) -> impl Fn(f64, f64, f64) -> bool + '_ {
+        let mut outline = Vec::new();
+        let (hl, hw) = (length / 2.0, width / 2.0);
+        let n = |l: f64| (l / 0.05).ceil() as usize;
+        for s in 0..=n(length) {
+            let x = -hl + length * s as f64 / n(length) as f64;
+            outline.push([x, -hw]);
+            outline.push([x, hw]);
+        }
+        for s in 0..=n(width) {
+            let y = -hw + width * s as f64 / n(width) as f64;
+            outline.push([-hl, y]);
+            outline.push([hl, y]);
+        }
+        move |x, y, yaw| {
+            let (s, c) = yaw.sin_cos();
+            scene.objects.iter().filter(|o| o.blocks).any(|o| {
+                outline.iter().any(|p| {
+                    let q = [x + c * p[0] - s * p[1], y + s * p[0] + c * p[1]];
+                    footprint_distance(&o.shape, q) < 0.01
+                })
+            })
+        }
+    }
+
+    /// A small room 3 m across split at x = 1 by a wall with a gap `gap` wide about y = 0; the
+    /// robot starts facing across the room (it must turn to pass).
+    fn small_gap_world(gap: f64) -> Scene {
+        let text = format!(
+            "name = 'gap'\nstart = [0.0, 0.0, 90.0]\ngoal = [2.2, 0.0]\ntime_limit_s = 10.0\n\
+             [[wall]]\nfrom = [-1.0, -1.5]\nto = [3.2, -1.5]\n\
+             [[wall]]\nfrom = [-1.0, 1.5]\nto = [3.2, 1.5]\n\
+             [[wall]]\nfrom = [-1.0, -1.5]\nto = [-1.0, 1.5]\n\
+             [[wall]]\nfrom = [3.2, -1.5]\nto = [3.2, 1.5]\n\
+             [[wall]]\nfrom = [1.0, -1.5]\nto = [1.0, {a}]\n\
+             [[wall]]\nfrom = [1.0, {b}]\nto = [1.0, 1.5]\n",
+            a = -gap / 2.0,
+            b = gap / 2.0
+        );
+        WorldFile::parse(&text, "gap").expect("valid").compile()
+    }
+
+    #[test]
+    fn a_rectangle_passes_lengthwise_through_a_gap_its_enclosing_circle_would_not() {
+        // Spot's body, 1.1 × 0.5 m: enclosing radius 0.60 m, half width 0.25 m
+        let body = Footprint {
+            inner_m: 0.25,
+            outer_m: 0.605,
+            headings: 36,
+        };
+        for (gap, passable) in [(0.62, true), (0.45, false)] {
+            let scene = small_gap_world(gap);
+            let r = reach_by(&scene, body, 0.3, 0.04, rectangle(&scene, 1.1, 0.5));
+            assert_eq!(r.reachable, passable, "gap {gap}: {r:?}");
+            assert!(
+                !reach(&scene, 0.6, 0.3, 0.04).reachable,
+                "the circle: {gap}"
+            );
+        }
+        // a body longer than the room is wide does not fit at the start, facing across it
+        let scene = small_gap_world(0.62);
+        let r = reach_by(&scene, body, 0.3, 0.04, rectangle(&scene, 3.1, 0.5));
+        assert!(r.start_blocked, "a 3.1 m body at the start: {r:?}");
     }
 
     #[test]
