@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 
 use crate::topics_doc::{Layout, documented_layouts, plain, table, tables, topics_md};

@@ -11,7 +11,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::static_config::StaticConfig;
 use iceoryx2::service::static_config::message_type_details::TypeVariant;
 use iceoryx2::service::static_config::messaging_pattern::MessagingPattern as Pattern;
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, PrivateDomain, Svc};
 use mimnav_shared::topics::{
     EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry,

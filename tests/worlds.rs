@@ -140,8 +140,8 @@ fn gap_world(dir: &Path, gap: f64) -> PathBuf {
 #[test]
 fn reachability_agrees_with_gaps_measured_by_hand() {
     let dir = scratch("gaps");
-    // Turtlebot 2: 0.40 m across; Spot's profile: 1.20 m
-    for (robot, narrow, wide) in [("turtlebot2", 0.36, 0.44), ("spot", 1.16, 1.24)] {
+    // Turtlebot 2: round, 0.40 m across; Spot: a 1.1 × 0.5 m body, through lengthwise
+    for (robot, narrow, wide) in [("turtlebot2", 0.36, 0.44), ("spot", 0.45, 0.58)] {
         let set = format!("robot.profile={robot}");
         for (gap, want) in [(narrow, "impassable"), (wide, "passable")] {
             let p = gap_world(&dir, gap);

@@ -73,7 +73,7 @@ __all__ = [
     "check_layouts",
 ]
 
-# --- joining the domain (shared/src/config.rs) ---------------------------------------------------
+# --- joining the domain (shared/src/config/iceoryx2.rs) ------------------------------------------
 
 #: iceoryx2 root path of a stack run with the shipped config (``[iceoryx2.global] root-path``).
 DEFAULT_ROOT_PATH = "/tmp/mimnav/iceoryx2/"

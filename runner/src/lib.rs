@@ -26,17 +26,16 @@ use std::time::{Duration, Instant};
 use mimnav_foliage::step::{ScanStep, StepError};
 use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::step::{MapStep, Mapped};
-use mimnav_planner::PlannerParams;
 use mimnav_planner::inflate::Inflation;
 use mimnav_planner::pilot::{Decision, Pilot, Refused};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, PointsHeader, ScanReturn, VelocityCommand,
 };
 use mimnav_sim::world::Scene;
-use mimnav_sim::{Outcome, Sim, SimSettings};
+use mimnav_sim::{Outcome, Sim};
 use mimnav_velodyne::decode::ScanReturnSelect;
 use mimnav_velodyne::driver::{Driver, Kind};
 use mimnav_velodyne::revolution::AssemblerConfig;
@@ -173,34 +172,34 @@ impl Lockstep {
         seed: u64,
         options: Options,
     ) -> Result<Self, RunnerError> {
-        let mut asm = AssemblerConfig::from_config(config);
+        let mut asm = AssemblerConfig::from_config(&config.velodyne);
         if options.map == MapSource::LaserScan {
             // the paper's baseline is a single-return planar scanner: the strongest echo, which
             // in grass is a blade (the last return would see through the grass)
             asm.velodyne.scan_return = ScanReturnSelect::Strongest;
         }
         let v = &config.velodyne;
-        let mut planner = PlannerParams::from_config(config);
+        let mut planner = config.planner_params();
         if let Some(inflation) = options.inflation {
             planner.planner.inflation = inflation;
         }
         planner.planner.use_foliage = options.foliage == FoliageUse::InLoop;
         let scan = match options.foliage {
             FoliageUse::Off => None,
-            FoliageUse::Classify | FoliageUse::InLoop => Some(ScanStep::from_config(config)?),
+            FoliageUse::Classify | FoliageUse::InLoop => Some(config.scan_step()?),
         };
         let r = &config.robot;
         Ok(Lockstep {
             sim: Sim::new(
                 scene,
-                SimSettings::from_config(config),
+                config.sim_settings(),
                 seed,
                 mimnav_sim::DEFAULT_EPOCH_NS,
             ),
             options,
             driver: Driver::new(asm, v.data_port, v.position_port),
             faults: Faults::new(Duration::from_secs(10)),
-            map: MapStep::from_config(config),
+            map: config.map_step(),
             scan,
             pilot: Pilot::new(planner),
             grid: config.map.grid(),

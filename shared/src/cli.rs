@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::config::{Config, ConfigError};
+use crate::config::{ConfigError, Load};
 
 /// `--config FILE` and `--set KEY=VALUE`, for `#[command(flatten)]` into a service's arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -18,21 +18,21 @@ pub struct ServiceArgs {
 
 impl ServiceArgs {
     /// The config these options name, with `extra` overrides applied after the `--set` ones.
-    pub fn load(&self, extra: &[String]) -> Result<Config, ConfigError> {
+    pub fn load<C: Load>(&self, extra: &[String]) -> Result<C, ConfigError> {
         let mut sets = self.set.clone();
         sets.extend_from_slice(extra);
-        Config::resolve(self.config.as_deref(), &sets)
+        C::resolve(self.config.as_deref(), &sets)
     }
 }
 
 impl ServiceArgs {
     /// [`ServiceArgs::load`] for `service`'s `main`: a bad config is printed as
     /// `service: file: what` and becomes exit status 2.
-    pub fn load_or_exit(
+    pub fn load_or_exit<C: Load>(
         &self,
         service: &str,
         extra: &[String],
-    ) -> Result<Config, std::process::ExitCode> {
+    ) -> Result<C, std::process::ExitCode> {
         self.load(extra).map_err(|e| {
             eprintln!("{service}: {e}");
             std::process::ExitCode::from(2)

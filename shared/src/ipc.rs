@@ -28,7 +28,7 @@ use iceoryx2::waitset::{WaitSetRunError, WaitSetRunResult};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use crate::config::Config;
+use crate::config::Common;
 use crate::topics::{self, EVENT_END_OF_STREAM, EVENT_NEW_DATA};
 
 /// The service variant every process uses: inter-process.
@@ -98,7 +98,7 @@ fn topic_err(topic: &'static str, e: impl Debug) -> IpcError {
 /// SIGTERM before that would kill the process outright. So this function waits once for zero
 /// time: from then on SIGTERM and SIGINT only end the loops. (iceoryx2 reports a signal once and
 /// then clears it: callers must remember that they were asked to stop.)
-pub fn node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {
+pub fn node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
     let node = create_node(config, name)?;
     let _ = node.wait(core::time::Duration::ZERO);
     restore_fatal_signals();
@@ -138,7 +138,7 @@ pub fn sleep(node: &Node<Svc>, d: core::time::Duration) -> bool {
     !matches!(node.wait(d), Err(NodeWaitFailure::TerminationRequest))
 }
 
-fn create_node(config: &Config, name: &str) -> Result<Node<Svc>, IpcError> {
+fn create_node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
     let node_err = |detail: String| IpcError::Node {
         name: name.to_string(),
         detail,
@@ -700,18 +700,20 @@ impl PrivateDomain {
         format!("{}/", self.root.display())
     }
 
-    /// `config` relocated to this location.
-    pub fn apply(&self, mut config: Config) -> Config {
+    /// `config` (the shared sections, or a whole config holding them) relocated to this
+    /// location.
+    pub fn apply<C: AsMut<Common>>(&self, mut config: C) -> C {
         // the location is made of valid characters by construction
         config
+            .as_mut()
             .set_iceoryx2_location(&self.root_str(), &self.prefix)
             .unwrap_or_else(|e| panic!("isolated iceoryx2 location: {e}"));
         config
     }
 
-    /// The default config relocated to this location.
-    pub fn config(&self) -> Config {
-        self.apply(Config::default())
+    /// The default shared sections relocated to this location.
+    pub fn config(&self) -> Common {
+        self.apply(Common::default())
     }
 
     /// `--set` arguments that put a service started as a process at this location.

@@ -150,7 +150,7 @@ pub fn set_fifo(priority: i32) -> Result<bool, LatencyError> {
 /// Applies `[latency]` for a service's lifetime: logged once each, as info when in force and as
 /// a warning (naming what failed and the way out) when not; the service runs either way. The
 /// CPU wake-up latency request returned holds while it lives.
-pub fn apply(config: &crate::config::Config) -> Option<CpuLatencyRequest> {
+pub fn apply(config: &crate::config::Common) -> Option<CpuLatencyRequest> {
     let priority = config.latency.realtime_priority;
     match set_fifo(priority) {
         Ok(true) => tracing::info!(priority, "real-time scheduling (SCHED_FIFO) in force"),

@@ -27,7 +27,7 @@
 //! }
 //!
 //! fn main() -> ExitCode {
-//!     service::main("mimnav-example", |_args: Args, config| {
+//!     service::main("mimnav-example", |_args: Args, config: mimnav_config::Config| {
 //!         let svc = Service::open(&config, "example")?;
 //!         let odom = mimnav_shared::ipc::odom_subscriber(svc.node())?;
 //!         let _odom_guard = svc.on_data(&odom)?;
@@ -49,7 +49,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::waitset::{WaitSetAttachmentId, WaitSetGuard};
 
 use crate::cli::ServiceArgs;
-use crate::config::Config;
+use crate::config::{Common, Load};
 use crate::faults::Faults;
 use crate::ipc::{self, IpcError, Listening, Svc};
 use crate::systemd::Notifier;
@@ -72,16 +72,17 @@ pub trait ServiceCli: clap::Parser {
 /// A service's `main`: parses `A`, loads the config (exit 2 on a bad one, naming the file, the
 /// key and its range), sets up logging and the latency settings, then calls `run`. An error from
 /// `run` is logged and printed as `name: error: cause: …` with exit status 1.
-pub fn main<A, E>(
+pub fn main<A, C, E>(
     name: &'static str,
-    run: impl FnOnce(A, Config) -> Result<ExitCode, E>,
+    run: impl FnOnce(A, C) -> Result<ExitCode, E>,
 ) -> ExitCode
 where
     A: ServiceCli,
+    C: Load,
     E: Display,
 {
     let args = A::parse();
-    let config = match args.service_args().load_or_exit(name, &args.overrides()) {
+    let config: C = match args.service_args().load_or_exit(name, &args.overrides()) {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -191,7 +192,7 @@ pub struct Service {
 
 impl Service {
     /// Opens the node `name` in the config's iceoryx2 domain and the loop's WaitSet.
-    pub fn open(config: &Config, name: &'static str) -> Result<Service, ServiceError> {
+    pub fn open(config: &Common, name: &'static str) -> Result<Service, ServiceError> {
         let node = ipc::node(config, name)?;
         let waitset = WaitSetBuilder::new()
             .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, PrivateDomain};
 use mimnav_shared::topics::{Goal, Odometry, VelocityCommand, command_status};
 

@@ -8,7 +8,7 @@
 //! `foliage.carry_scans = 0`) the scan is classified as the paper does, with no earlier scan
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
-use mimnav_shared::config::{Config, Invalid, seconds_ns};
+use mimnav_shared::config::Invalid;
 use mimnav_shared::pose::{
     LidarMount, MountTransform, NonFiniteOdometry, Pose2, check_odometry, pose2,
 };
@@ -90,12 +90,6 @@ impl ScanStep {
             out: Vec::new(),
             seq: 0,
         })
-    }
-
-    /// The step of the config's `[foliage]` (and `robot.mount`).
-    pub fn from_config(config: &Config) -> Result<Self, StepError> {
-        let step = ScanStep::new(config.foliage, seconds_ns(config.foliage.odom_max_age_s))?;
-        Ok(step.with_mount(&config.robot.mount))
     }
 
     /// The lidar sits at `mount` on the robot: every return is first brought into the frame of

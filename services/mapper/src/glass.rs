@@ -16,7 +16,7 @@
 
 use std::collections::HashMap;
 
-use mimnav_shared::config::MapperConfig;
+use crate::config::MapperConfig;
 use mimnav_shared::grid::GridSpec;
 pub use mimnav_shared::pose::Pose2;
 use mimnav_shared::pose::Pose2Ext;

@@ -42,14 +42,15 @@
 #![deny(missing_docs)]
 
 pub mod baseline;
+pub mod config;
 pub mod glass;
 pub mod render;
 pub mod score;
 pub mod step;
 
-use mimnav_shared::config::{
-    Config, LayerConfig, LayerUnit, MapperConfig, RobotProfile, seconds_ns,
-};
+use mimnav_shared::config::{MapConfig, RobotProfile, seconds_ns};
+
+use crate::config::{LayerConfig, LayerUnit, MapperConfig};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{Point, cell_class, return_type};
 
@@ -71,15 +72,6 @@ pub struct MapperParams {
 }
 
 impl MapperParams {
-    /// Parameters from the stack's config.
-    pub fn from_config(config: &Config) -> Self {
-        MapperParams {
-            grid: config.map.grid(),
-            robot: config.robot.clone(),
-            mapper: config.mapper.clone(),
-        }
-    }
-
     /// The layers in force (at least `below`, `above`, `zero`, `minus_eps`): `mapper.layer`, or
     /// the paper's four sized for the robot.
     pub fn layers(&self) -> Vec<LayerConfig> {
@@ -103,8 +95,13 @@ impl MapperParams {
 }
 
 impl Default for MapperParams {
+    /// The documented defaults (`mimnav_config::Config::mapper_params` builds a file's).
     fn default() -> Self {
-        MapperParams::from_config(&Config::default())
+        MapperParams {
+            grid: MapConfig::default().grid(),
+            robot: RobotProfile::default(),
+            mapper: MapperConfig::default(),
+        }
     }
 }
 

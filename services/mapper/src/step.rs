@@ -11,7 +11,6 @@
 //! - a message with a non-finite number is refused where it arrives ([`MapStep::odom`]) and never
 //!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
 
-use mimnav_shared::config::{Config, seconds_ns};
 use mimnav_shared::pose::{LidarMount, MountTransform, NonFiniteOdometry, check_odometry, pose2};
 use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
 
@@ -61,15 +60,6 @@ impl MapStep {
             odom: None,
             seq: 0,
         }
-    }
-
-    /// The step of the config's `[mapper]`, `[map]` and `[robot]` (with `robot.mount`).
-    pub fn from_config(config: &Config) -> Self {
-        MapStep::new(
-            MapperParams::from_config(config),
-            seconds_ns(config.mapper.odom_max_age_s),
-        )
-        .with_mount(&config.robot.mount)
     }
 
     /// The lidar sits at `mount` on the robot: every revolution is first brought into the frame

@@ -10,13 +10,13 @@
 
 use std::path::PathBuf;
 
-use mimnav_mapper::step::{MapStep, mount_points};
-use mimnav_shared::config::Config;
+use mimnav_mapper::step::mount_points;
+use mimnav_config::Config;
 use mimnav_shared::pose::{LidarMount, MountTransform};
 use mimnav_shared::topics::{Point, PointsHeader, cell_class};
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;
-use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
+use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim};
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
 /// The revolutions of scenario 1 (walls, pillars, a glass wall) along its survey route, with
@@ -28,8 +28,8 @@ fn revolutions(
         .join("../../config/worlds/scenario1_glass_wall.toml");
     let scene = WorldFile::load(&path).expect("the bundled world").compile();
     let mut driver = WaypointDriver::new(scene.survey.clone(), 0.25);
-    let mut sim = Sim::new(scene, SimSettings::from_config(config), 1, DEFAULT_EPOCH_NS);
-    let mut asm = Assembler::new(AssemblerConfig::from_config(config));
+    let mut sim = Sim::new(scene, config.sim_settings(), 1, DEFAULT_EPOCH_NS);
+    let mut asm = Assembler::new(AssemblerConfig::from_config(&config.velodyne));
     let limits = sim.settings().robot.clone();
     let mut out = Vec::new();
     while sim.outcome() == Outcome::Running && !driver.done() && out.len() < 80 {
@@ -64,11 +64,11 @@ fn an_offset_yawed_and_tilted_mount_maps_like_a_centred_sensor() {
     let mut mounted_config = config.clone();
     mounted_config.robot.mount = mount;
     let (mut centred, mut mounted) = (
-        MapStep::from_config(&config),
-        MapStep::from_config(&mounted_config),
+        config.map_step(),
+        mounted_config.map_step(),
     );
     // a step that ignores the mount sees another map: the comparison can fail
-    let mut ignoring = MapStep::from_config(&config);
+    let mut ignoring = config.map_step();
     let inverse = MountTransform::inverse_of(&mount);
     let (mut as_mounted, mut worst, mut ignored_worst) = (Vec::new(), 0.0f64, 0.0f64);
     let mut glass_cells = 0usize;

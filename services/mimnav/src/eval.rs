@@ -17,10 +17,9 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use mimnav_mapper::render::{self, Image};
 use mimnav_mapper::score::{MapScore, score};
-use mimnav_planner::PlannerParams;
 use mimnav_planner::inflate::Inflation;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{cell_class, command_status};
@@ -540,7 +539,7 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
     // the goal and the start in the grid's frame
     let goal = centre.to_local(scene.goal[0], scene.goal[1]);
     let start = centre.to_local(scene.start[0], scene.start[1]);
-    let p = PlannerParams::from_config(config);
+    let p = config.planner_params();
     let mut route = mimnav_planner::route::Route::default();
     route.build(
         &mimnav_planner::route::RouteParams {

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_sim::generate::Family;
 use mimnav_sim::world::{Scene, WorldFile};
 
@@ -165,12 +165,11 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
         row.successes = row.reached + row.stopped_without_contact;
     }
     println!(
-        "{} worlds, {} seeds each (from seed {}), {} (radius {:.2} m), lock-step; passable worlds succeed on reaching the goal, impassable ones on touching nothing by the time limit\n",
+        "{} worlds, {} seeds each (from seed {}), {}, lock-step; passable worlds succeed on reaching the goal, impassable ones on touching nothing by the time limit\n",
         worlds.len(),
         args.seeds,
         args.first_seed,
-        robot,
-        config.robot.radius_m
+        crate::worlds::robot_label(config),
     );
     println!(
         "| family | method | worlds passable / impassable | success | passable: goal reached | passable: contact / froze / timeout | impassable: no contact | impassable: contact |"

@@ -36,7 +36,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::topics::{cell_class, foliage_class};
 use mimnav_sim::Outcome;
@@ -664,8 +664,8 @@ pub fn run(
         args.scans,
         config.velodyne.scan_laser,
         match config.velodyne.scan_return {
-            mimnav_shared::config::ScanReturnSelect::Strongest => "strongest return",
-            mimnav_shared::config::ScanReturnSelect::Last => "last return",
+            mimnav_velodyne::config::ScanReturnSelect::Strongest => "strongest return",
+            mimnav_velodyne::config::ScanReturnSelect::Last => "last return",
         },
         p.d_min_m,
         p.d_max_m,

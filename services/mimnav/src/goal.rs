@@ -4,7 +4,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::Result;
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc;
 use mimnav_shared::topics::Goal;
 

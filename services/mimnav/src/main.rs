@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 
 /// mimnav: lidar-intensity navigation for a robot with a Velodyne VLP-16.
 #[derive(Debug, Parser)]

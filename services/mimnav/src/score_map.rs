@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use mimnav_mapper::score::{ClassScore, MapScore, score, score_excluding};
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_sim::Outcome;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
+use mimnav_shared::config::Body;
 use mimnav_sim::generate::{self, Family, REPORT_SEEDS, TUNE_SEEDS};
 use mimnav_sim::reach;
 use mimnav_sim::world::{Scene, WorldFile};
@@ -161,21 +162,23 @@ pub fn toml_files(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
-/// Whether the configured robot (a circle of `robot.radius_m`) can reach `scene`'s goal circle.
+/// Whether the configured robot's body (the simulator's: a circle of `robot.radius_m`, or the
+/// `length_m` × `width_m` rectangle) can reach `scene`'s goal circle.
 pub fn passable(config: &Config, scene: &Scene) -> reach::Reach {
-    reach::reach(
-        scene,
-        config.robot.radius_m,
-        config.sim.goal_tolerance_m,
-        reach::CELL_M,
-    )
+    reach::reach_body(scene, &config.robot.body(), config.sim.goal_tolerance_m)
 }
 
-fn robot_label(config: &Config) -> String {
-    format!(
-        "{} (radius {:.2} m)",
-        config.robot.name, config.robot.radius_m
-    )
+/// The robot and its body, for headings.
+pub fn robot_label(config: &Config) -> String {
+    match config.robot.body() {
+        Body::Round(r) => format!("{} (round, radius {r:.2} m)", config.robot.name),
+        Body::Rectangle { length_m, width_m } => {
+            format!(
+                "{} (body {length_m:.2} × {width_m:.2} m)",
+                config.robot.name
+            )
+        }
+    }
 }
 
 fn verdict(r: &reach::Reach) -> &'static str {

@@ -8,9 +8,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use mimnav_planner::inflate::Inflation;
-use mimnav_planner::{Planner, PlannerParams};
+use mimnav_planner::Planner;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;
@@ -66,7 +66,7 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
 }
 
 fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
-    let mut params = PlannerParams::from_config(config);
+    let mut params = config.planner_params();
     params.planner.inflation = inflation;
     let mut planner = Planner::new(params);
     let grid = config.map.grid();
@@ -98,7 +98,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
     use mimnav_planner::dwa;
     use mimnav_planner::inflate::{KernelCache, plan_cost};
     use mimnav_planner::route::{Route, RouteParams};
-    let params = PlannerParams::from_config(config);
+    let params = config.planner_params();
     let grid = config.map.grid();
     let p = &params.planner;
     let mut kernels = KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles);

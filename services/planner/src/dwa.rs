@@ -3,15 +3,22 @@
 //!
 //! Velocity pairs (v, ω) are sampled in the window the acceleration limits allow within one
 //! control period of the current velocity; each is rolled forward over the horizon from the robot
-//! (at the map's centre, heading along x). A trajectory whose footprint (the robot's radius)
-//! touches a solid or glass cell is infeasible (beyond the paper: narrow passages stay open
-//! without ever grazing a wall); the others are scored by goal progress, speed and the obstacle
+//! (at the map's centre, heading along x). A trajectory whose footprint — the robot's body,
+//! oriented along the rollout's heading at every step: a disc for a round robot, a rectangle
+//! for one with `robot.length_m` × `robot.width_m` — comes within `planner.margin_m` of a solid
+//! or glass cell is infeasible. A rectangle is tested in three tiers, each exact enough to
+//! decide when it passes: the centre's clearance against the body's reach, then a cover of
+//! discs along the heading ([`PlannerParams::footprint_discs`], a superset of the body), then
+//! points of the outline ([`PlannerParams::outline`]) — so the exact test runs only beside
+//! obstacles, where the discs' bulge would otherwise keep the body from a door or a turn it can
+//! make (beyond the paper: narrow
+//! passages stay open without ever grazing a wall); the others are scored by goal progress, speed and the obstacle
 //! cost summed along them on the planning map (eq. 12), and the cheapest wins.
 
 use mimnav_shared::grid::GridSpec;
 
 use crate::clearance::Clearance;
-use crate::params::PlannerParams;
+use crate::params::{OUTLINE_SPACING_M, PlannerParams};
 use crate::route::Route;
 
 /// What the search decided.
@@ -64,16 +71,52 @@ pub fn plan(
     // Closer than the footprint and margin already (a late detection, or a cell misjudged
     // solid): motions that get no closer still are allowed, so the robot can back out instead
     // of freezing; a robot inside an obstacle cell can only be blocked.
-    let Some(start_clear) = grid
-        .cell_of(0.0, 0.0)
-        .map(|(r, c)| f64::from(clear.at(r, c)))
-    else {
-        return DwaOutcome::Blocked;
-    };
-    if start_clear <= 0.0 {
-        return DwaOutcome::Blocked;
+    // each disc of the body's cover: its offset along the heading and the clearance it needs
+    let mut discs: Vec<(f64, f64)> = Vec::new();
+    for d in p.footprint_discs() {
+        let Some(start_clear) = grid
+            .cell_of(d.x_m as f32, 0.0)
+            .map(|(r, c)| f64::from(clear.at(r, c)))
+        else {
+            return DwaOutcome::Blocked;
+        };
+        if start_clear <= 0.0 {
+            return DwaOutcome::Blocked;
+        }
+        discs.push((d.x_m, (d.radius_m + pl.margin_m).min(start_clear)));
     }
-    let required = p.footprint_m().min(start_clear);
+    // a centre this clear leaves every disc clear (a cell of slack for the grid's steps)
+    let centre_enough = discs
+        .iter()
+        .map(|&(x, need)| x.abs() + need)
+        .fold(0.0, f64::max)
+        + f64::from(grid.cell_m);
+    let round = discs.len() == 1 && discs[0].0 == 0.0;
+    // the outline's points (body frame) and the clearance each needs: the margin, and half the
+    // spacing so that no point of the outline between two samples comes closer
+    let mut outline: Vec<(f64, f64, f64)> = Vec::new();
+    for [bx, by] in p.outline() {
+        let Some(start_clear) = grid
+            .cell_of(bx as f32, by as f32)
+            .map(|(r, c)| f64::from(clear.at(r, c)))
+        else {
+            return DwaOutcome::Blocked;
+        };
+        if start_clear <= 0.0 {
+            return DwaOutcome::Blocked;
+        }
+        let need = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
+        outline.push((bx, by, need.min(start_clear)));
+    }
+    let too_close = |x: f64, y: f64, hc: f64, hs: f64| {
+        discs.iter().any(|&(dx, need)| {
+            grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
+                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
+        }) && outline.iter().any(|&(bx, by, need)| {
+            grid.cell_of((x + hc * bx - hs * by) as f32, (y + hs * bx + hc * by) as f32)
+                .is_some_and(|(r, c)| f64::from(clear.at(r, c)) < need)
+        })
+    };
     let mut best: Option<(f64, f64, f64)> = None;
     let sample = |lo: f64, hi: f64, k: usize, n: usize| {
         if n <= 1 {
@@ -103,7 +146,13 @@ pub fn plan(
                     break;
                 };
                 let i = grid.index(r, c);
-                if f64::from(clear.at(r, c)) < required {
+                let centre_clear = f64::from(clear.at(r, c));
+                if round {
+                    if centre_clear < discs[0].1 {
+                        feasible = false;
+                        break;
+                    }
+                } else if centre_clear < centre_enough && too_close(x, y, hc, hs) {
                     feasible = false;
                     break;
                 }
@@ -257,5 +306,78 @@ mod tests {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
             DwaOutcome::Blocked => {}
         }
+    }
+
+    /// Spot's body as its profile gives it: 1.1 × 0.5 m (its enclosing circle: 0.6 m).
+    fn spot() -> PlannerParams {
+        let mut p = PlannerParams::default();
+        p.robot.radius_m = 0.6;
+        p.robot.length_m = 1.1;
+        p.robot.width_m = 0.5;
+        p.robot.max_linear_mps = 0.6;
+        p
+    }
+
+    #[test]
+    fn a_rectangular_body_drives_through_a_door_its_enclosing_circle_does_not_fit() {
+        // a wall across x = 1.2 m with a 1 m door on the heading
+        let (grid, classes) = map(|x, y| {
+            if (x - 1.2).abs() < 0.05 && y.abs() > 0.5 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut clear = Clearance::default();
+        clear.compute(&classes, grid, 4.0, 5.0);
+        let cost = vec![0u8; grid.len()];
+        let straight = |mut p: PlannerParams| {
+            p.planner.omega_samples = 1;
+            p.robot.max_angular_rps = 0.0;
+            plan(&p, grid, &cost, &clear, 0.5, 0.0, (4.0, 0.0), None)
+        };
+        match straight(spot()) {
+            DwaOutcome::Drive { v, .. } => assert!(v > 0.45, "through the door: {v}"),
+            o => panic!("the body fits the door: {o:?}"),
+        }
+        let mut round = spot();
+        (round.robot.length_m, round.robot.width_m) = (0.0, 0.0);
+        assert_eq!(straight(round), DwaOutcome::Blocked);
+    }
+
+    #[test]
+    fn the_body_is_checked_along_each_rollouts_heading() {
+        // a 1 m corridor: Spot fits lengthwise but cannot turn across it; a small round robot can
+        let (grid, classes) = map(|_, y| {
+            if y.abs() > 0.5 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut clear = Clearance::default();
+        clear.compute(&classes, grid, 4.0, 5.0);
+        let cost = vec![0u8; grid.len()];
+        let turn_in_place = |mut p: PlannerParams| {
+            p.planner.v_samples = 1;
+            p.planner.omega_samples = 1;
+            p.robot.max_linear_accel = 0.01;
+            p.robot.max_angular_accel = 0.01;
+            p.robot.max_angular_rps = 1.0;
+            plan(&p, grid, &cost, &clear, 0.0, 1.0, (0.0, 3.0), None)
+        };
+        assert_eq!(turn_in_place(spot()), DwaOutcome::Blocked);
+        assert!(matches!(
+            turn_in_place(PlannerParams::default()),
+            DwaOutcome::Drive { .. }
+        ));
+        // heading along the corridor, the same body drives
+        let mut ahead = spot();
+        ahead.planner.omega_samples = 1;
+        ahead.robot.max_angular_rps = 0.0;
+        assert!(matches!(
+            plan(&ahead, grid, &cost, &clear, 0.3, 0.0, (4.0, 0.0), None),
+            DwaOutcome::Drive { v, .. } if v > 0.25
+        ));
     }
 }

@@ -13,7 +13,7 @@ use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
 /// How obstacles are inflated: `planner.inflation`.
-pub use mimnav_shared::config::Inflation;
+pub use crate::config::Inflation;
 
 /// A kernel: the offsets (row, column) of its ones and their cost.
 #[derive(Debug, Clone, PartialEq)]

@@ -15,6 +15,7 @@
 #![deny(missing_docs)]
 
 pub mod clearance;
+pub mod config;
 pub mod dwa;
 pub mod inflate;
 pub mod params;

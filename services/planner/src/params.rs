@@ -2,43 +2,64 @@
 //! the command's validity) and the passable cost of `[mapper]`, held as the config has them.
 //! The values the planner needs in other units are methods here, written once.
 
-use mimnav_shared::config::{Config, PlannerConfig, RobotProfile, seconds_ns};
+use mimnav_mapper::config::MapperConfig;
+use mimnav_shared::config::{Disc, RobotProfile, seconds_ns};
+
+use crate::config::PlannerConfig;
+
+/// How far the disc cover of a rectangular body may reach beyond its long sides, m: the cover
+/// then reaches about 0.15 m beyond a 0.5 m wide body's front and back (see
+/// [`mimnav_shared::config::Body::discs`]), which only makes the robot stop that much earlier
+/// head-on; narrow passages are passed on the sides, where 3 cm is lost.
+pub const BODY_COVER_SIDE_M: f64 = 0.03;
+
+/// How far apart the dynamic window tests a rectangular body's outline where its disc cover
+/// comes too close, m; each point keeps half this more than `planner.margin_m`.
+pub const OUTLINE_SPACING_M: f64 = 0.08;
 
 /// Everything the planner and the service's step around it ([`crate::pilot`]) are set by.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerParams {
     /// `[planner]`: inflation, the dynamic window, the route, the freshness rules.
     pub planner: PlannerConfig,
-    /// `[robot]`: the footprint (`radius_m`), the motion limits the dynamic window samples
+    /// `[robot]`: the body (`radius_m`, or `length_m` × `width_m`), the motion limits the dynamic window samples
     /// within, and how long a command stays valid.
     pub robot: RobotProfile,
     /// The planning cost of a passable cell, 0–255, as the mapper writes it
-    /// (`mapper.passable_cost`, [`mimnav_shared::config::MapperConfig::passable_cell_cost`]).
+    /// (`mapper.passable_cost`, [`MapperConfig::passable_cell_cost`]).
     pub passable_cost: u8,
 }
 
 impl PlannerParams {
-    /// The settings of `[planner]`, with the robot of `[robot]` and the passable cost of
-    /// `[mapper]`.
-    pub fn from_config(config: &Config) -> Self {
-        PlannerParams {
-            planner: config.planner.clone(),
-            robot: config.robot.clone(),
-            passable_cost: config.mapper.passable_cell_cost(),
-        }
+    /// Half the narrowest gap the robot is routed through, with the margin kept on each side:
+    /// the body's half width (its radius, if round) and `planner.margin_m`, m.
+    pub fn footprint_m(&self) -> f64 {
+        self.robot.body().half_width_m() + self.planner.margin_m
     }
 
-    /// The distance kept from solid and glass cells: the footprint's radius and the margin, m.
-    pub fn footprint_m(&self) -> f64 {
-        self.robot.radius_m + self.planner.margin_m
+    /// The discs the dynamic window checks along every rollout: a cover of the body (one disc
+    /// of `radius_m` for a round robot; for a rectangle, discs along the heading reaching at
+    /// most [`BODY_COVER_SIDE_M`] beyond its long sides), each to be kept `planner.margin_m`
+    /// from solid and glass cells.
+    pub fn footprint_discs(&self) -> Vec<Disc> {
+        self.robot.body().discs(BODY_COVER_SIDE_M)
+    }
+
+    /// Points of a rectangular body's outline [`OUTLINE_SPACING_M`] apart, in the body's frame
+    /// (none for a round body).
+    pub fn outline(&self) -> Vec<[f64; 2]> {
+        self.robot.body().outline(OUTLINE_SPACING_M)
     }
 
     /// How far from the robot a rollout's footprint can reach: the top speed over the horizon,
-    /// the radius and the margin, m.
+    /// the body's enclosing radius (the end discs of its cover, if farther) and the margin, m.
     pub fn reach_m(&self) -> f64 {
-        self.robot.max_linear_mps * self.planner.horizon_s
-            + self.robot.radius_m
-            + self.planner.margin_m
+        let body = self
+            .footprint_discs()
+            .iter()
+            .map(|d| d.x_m.abs() + d.radius_m)
+            .fold(self.robot.body().enclosing_radius_m(), f64::max);
+        self.robot.max_linear_mps * self.planner.horizon_s + body + self.planner.margin_m
     }
 
     /// A map older than this is stale (`planner.map_max_age_s`), ns.
@@ -69,7 +90,12 @@ impl PlannerParams {
 
 impl Default for PlannerParams {
     /// The documented defaults: a Turtlebot 2 with the authors' starting point (DESIGN §7).
+    /// `mimnav_config::Config::planner_params` builds a file's.
     fn default() -> Self {
-        PlannerParams::from_config(&Config::default())
+        PlannerParams {
+            planner: PlannerConfig::default(),
+            robot: RobotProfile::default(),
+            passable_cost: MapperConfig::default().passable_cell_cost(),
+        }
     }
 }

@@ -19,7 +19,6 @@
 //! - **foliage**: the obstacles of a verdict no older than `planner.foliage_max_age_s` are solid
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
-use mimnav_shared::config::Config;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{NonFiniteOdometry, Pose2Ext, check_odometry, odom_pose};
 use mimnav_shared::topics::{
@@ -152,11 +151,6 @@ impl Pilot {
             classes: Vec::new(),
             seq: 0,
         }
-    }
-
-    /// The pilot of the config's `[planner]` and `[robot]`.
-    pub fn from_config(config: &Config) -> Self {
-        Pilot::new(PlannerParams::from_config(config))
     }
 
     /// The settings: the planner's and the rules'.

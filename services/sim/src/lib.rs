@@ -23,6 +23,7 @@
 #![deny(missing_docs)]
 
 pub mod blades;
+pub mod config;
 pub mod generate;
 pub mod geometry;
 pub mod lidar;
@@ -32,7 +33,9 @@ pub mod reach;
 pub mod truth;
 pub mod world;
 
-use mimnav_shared::config::{Config, RobotProfile, SimConfig};
+use mimnav_shared::config::RobotProfile;
+
+use crate::config::SimConfig;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, Odometry};
@@ -104,22 +107,15 @@ pub struct SimSettings {
     pub rpm: f64,
 }
 
-impl SimSettings {
-    /// Settings from the stack's config: the sensor is what `[velodyne]` says it is set to
-    /// (`rpm`), mounted as `[robot]` says; physics and return mode from `[sim]`.
-    pub fn from_config(config: &Config) -> Self {
-        SimSettings {
-            sim: config.sim.clone(),
-            robot: config.robot.clone(),
-            rpm: config.velodyne.rpm,
-        }
-    }
-}
-
 impl Default for SimSettings {
-    /// The documented defaults: a Turtlebot 2 with a dual-return VLP-16 at 600 rpm.
+    /// The documented defaults: a Turtlebot 2 with a dual-return VLP-16 at 600 rpm. The stack's
+    /// config builds the settings of a file (`mimnav_config::Config::sim_settings`).
     fn default() -> Self {
-        SimSettings::from_config(&Config::default())
+        SimSettings {
+            sim: SimConfig::default(),
+            robot: RobotProfile::default(),
+            rpm: mimnav_velodyne::config::VelodyneConfig::default().rpm,
+        }
     }
 }
 
@@ -337,7 +333,7 @@ impl Sim {
         self.base
             .step(self.cmd.0, self.cmd.1, dt, &self.settings.robot);
         let p = self.base.pose;
-        if let Some(i) = motion::contact(&self.scene, p.x(), p.y(), self.settings.robot.radius_m) {
+        if let Some(i) = motion::body_contact(&self.scene, &p, &self.settings.robot.body()) {
             self.base = before;
             self.base.v = 0.0;
             self.base.omega = 0.0;

@@ -7,7 +7,7 @@
 //! azimuth is the azimuth of the block's first firing. The packet timestamp is its first firing,
 //! in µs past the top of the hour.
 
-use mimnav_shared::config::SimConfig;
+use crate::config::SimConfig;
 use mimnav_shared::pose::{LidarMount, Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{DATA_PACKET_LEN, return_mode};
 use mimnav_velodyne::packet::{

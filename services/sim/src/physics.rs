@@ -22,7 +22,7 @@
 //! than 1 reflectivity unit are not detected. The sensor reports the last echo and
 //! the strongest one (the second strongest when the last is also the strongest).
 
-use mimnav_shared::config::SimConfig;
+use crate::config::SimConfig;
 
 use crate::blades::{BladeField, NearBlade, beam_width, intercept as blade_intercept};
 use crate::geometry::{Hit, intersect};

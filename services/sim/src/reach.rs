@@ -22,7 +22,10 @@
 use std::collections::VecDeque;
 
 use crate::geometry::footprint_distance;
-use crate::motion::contact;
+use mimnav_shared::config::Body;
+use mimnav_shared::pose::pose2;
+
+use crate::motion::{OUTLINE_SPACING_M, body_contact, contact};
 use crate::world::Scene;
 
 /// Default grid spacing, m.
@@ -65,6 +68,37 @@ pub fn reach(scene: &Scene, radius_m: f64, goal_tolerance_m: f64, cell_m: f64) -
     reach_by(scene, round, goal_tolerance_m, cell_m, |x, y, _| {
         contact(scene, x, y, radius_m).is_some()
     })
+}
+
+/// Headings a rectangular body is tested at by [`reach_body`]: 5° apart.
+pub const BODY_HEADINGS: usize = 72;
+/// Grid spacing of [`reach_body`] for a rectangular body, m.
+pub const BODY_CELL_M: f64 = 0.03;
+
+/// Whether the robot's `body` can drive from `scene`'s start onto the goal circle without
+/// contact, by the simulator's own test for that body ([`crate::motion::body_contact`]): a round
+/// body by [`reach`] (exact to [`CELL_M`]); a rectangle over poses by [`reach_by`], exact to
+/// [`BODY_CELL_M`] and half of 360° / [`BODY_HEADINGS`] (Spot's 1.1 m body turned 2.5° off a
+/// gap's axis is 5 cm wider across it).
+pub fn reach_body(scene: &Scene, body: &Body, goal_tolerance_m: f64) -> Reach {
+    match *body {
+        Body::Round(r) => reach(scene, r, goal_tolerance_m, CELL_M),
+        Body::Rectangle { .. } => {
+            let footprint = Footprint {
+                inner_m: body.half_width_m(),
+                // body_contact calls a contact up to half its outline spacing early
+                outer_m: body.enclosing_radius_m() + 0.5 * OUTLINE_SPACING_M,
+                headings: BODY_HEADINGS,
+            };
+            reach_by(
+                scene,
+                footprint,
+                goal_tolerance_m,
+                BODY_CELL_M,
+                |x, y, yaw| body_contact(scene, &pose2(x, y, yaw), body).is_some(),
+            )
+        }
+    }
 }
 
 /// Whether the start and the goal circle are connected in the free poses (x, y, heading) of a
@@ -316,6 +350,21 @@ mod tests {
         let scene = small_gap_world(0.62);
         let r = reach_by(&scene, body, 0.3, 0.04, rectangle(&scene, 3.1, 0.5));
         assert!(r.start_blocked, "a 3.1 m body at the start: {r:?}");
+    }
+
+    #[test]
+    fn reach_body_uses_the_simulators_body_test() {
+        let spot = Body::Rectangle {
+            length_m: 1.1,
+            width_m: 0.5,
+        };
+        for (gap, passable) in [(0.62, true), (0.45, false)] {
+            let r = reach_body(&small_gap_world(gap), &spot, 0.3);
+            assert_eq!(r.reachable, passable, "gap {gap}: {r:?}");
+        }
+        // a round body is the circle
+        assert!(!reach_body(&small_gap_world(0.62), &Body::Round(0.32), 0.3).reachable);
+        assert!(reach_body(&small_gap_world(0.62), &Body::Round(0.29), 0.3).reachable);
     }
 
     #[test]

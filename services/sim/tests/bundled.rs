@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_sim::world::WorldFile;
-use mimnav_sim::{DEFAULT_EPOCH_NS, Sim, SimSettings, write_capture};
+use mimnav_sim::{DEFAULT_EPOCH_NS, Sim, write_capture};
 
 #[test]
 fn the_bundled_capture_is_reproducible() {
@@ -15,7 +15,7 @@ fn the_bundled_capture_is_reproducible() {
         WorldFile::load(&root.join("config/worlds/scenario2_curtain_door.toml")).expect("world");
     let mut sim = Sim::new(
         world.compile(),
-        SimSettings::from_config(&config),
+        config.sim_settings(),
         config.sim.seed,
         DEFAULT_EPOCH_NS,
     );

@@ -13,7 +13,7 @@
 //!   first, then the strongest, each only if non-zero;
 //! - geometry: x = d·cos ω·cos α, y = −d·cos ω·sin α, z = d·sin ω (ω elevation, α azimuth).
 
-use mimnav_shared::config::VelodyneConfig;
+use crate::config::VelodyneConfig;
 use mimnav_shared::topics::{Point, ScanReturn, return_mode, return_type};
 
 use crate::packet::{
@@ -27,7 +27,7 @@ pub const SEQUENCE_NS: u32 = 55_296;
 pub const LASER_NS: u32 = 2_304;
 
 /// Which return of a dual pair a planar scan takes: `velodyne.scan_return`.
-pub use mimnav_shared::config::ScanReturnSelect;
+pub use crate::config::ScanReturnSelect;
 
 /// Per-laser geometry of one product.
 #[derive(Debug, Clone)]

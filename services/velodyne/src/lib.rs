@@ -21,6 +21,7 @@
 #![deny(missing_docs)]
 
 pub mod capture;
+pub mod config;
 pub mod decode;
 pub mod driver;
 pub mod packet;

@@ -11,7 +11,9 @@
 //! configured capacity, or when the return mode or product changes; the header's `cut_reason`
 //! says which.
 
-use mimnav_shared::config::{VelodyneConfig, seconds_ns};
+use mimnav_shared::config::seconds_ns;
+
+use crate::config::VelodyneConfig;
 use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason};
 
 use crate::decode::{Decoder, PacketCounts};
@@ -45,10 +47,9 @@ impl Default for AssemblerConfig {
 }
 
 impl AssemblerConfig {
-    /// Settings from the stack's config: a revolution may last up to 1.5 turns at
-    /// `velodyne.rpm` before it is cut, and the capacity covers that in dual-return mode.
-    pub fn from_config(config: &mimnav_shared::config::Config) -> Self {
-        let v = &config.velodyne;
+    /// The assembler of `[velodyne]`: a revolution may last up to 1.5 turns at `velodyne.rpm`
+    /// before it is cut, and the capacity covers that in dual-return mode.
+    pub fn from_config(v: &VelodyneConfig) -> Self {
         let max_duration_s = 1.5 * 60.0 / v.rpm;
         AssemblerConfig {
             velodyne: v.clone(),

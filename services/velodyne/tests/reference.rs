@@ -10,7 +10,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-use mimnav_shared::config::VelodyneConfig;
+use mimnav_velodyne::config::VelodyneConfig;
 use mimnav_shared::topics::Point;
 use mimnav_velodyne::capture::CaptureReader;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig, max_points_per_revolution};

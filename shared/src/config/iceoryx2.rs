@@ -11,7 +11,7 @@ pub const DEFAULT_IOX2_ROOT: &str = "/tmp/mimnav/iceoryx2/";
 /// Prefix of iceoryx2's files unless the config says otherwise.
 pub const DEFAULT_IOX2_PREFIX: &str = "mimnav_";
 
-pub(super) fn project_iceoryx2_defaults() -> iceoryx2::config::Config {
+pub(crate) fn project_iceoryx2_defaults() -> iceoryx2::config::Config {
     let mut table = toml::Table::new();
     let mut global = toml::Table::new();
     global.insert("root-path".into(), DEFAULT_IOX2_ROOT.into());
@@ -23,7 +23,7 @@ pub(super) fn project_iceoryx2_defaults() -> iceoryx2::config::Config {
 
 /// Builds iceoryx2's Config from a partial `[iceoryx2]` table: iceoryx2's defaults, then the
 /// project's root path and prefix, then the table. Keys iceoryx2 does not know are errors.
-pub(super) fn iceoryx2_config(
+pub(crate) fn iceoryx2_config(
     table: &toml::Table,
     source: &str,
 ) -> Result<iceoryx2::config::Config, ConfigError> {

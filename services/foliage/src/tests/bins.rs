@@ -76,11 +76,11 @@ fn validate_names_the_key_and_range() {
 }
 
 /// The values the config file and the classifier used to disagree on (each had its own checks)
-/// are refused by both now, naming the same key: the file through the loader, the classifier
-/// through [`Classifier::new`].
+/// are refused by both now, naming the same key: the `[foliage]` section as a file gives it
+/// (through its `validate`, which the stack's loader calls), the classifier through
+/// [`Classifier::new`].
 #[test]
 fn the_file_and_the_classifier_refuse_the_same_values() {
-    use mimnav_shared::config::Config;
     let d = FoliageParams::default();
     let cases = [
         ("k3 = 0", "foliage.k3", FoliageParams { k3: 0.0, ..d }),
@@ -141,19 +141,17 @@ fn the_file_and_the_classifier_refuse_the_same_values() {
         ),
     ];
     for (line, key, params) in cases {
-        let text = format!("[foliage]\n{line}\n");
-        let e = Config::from_toml(&text, std::path::Path::new("t.toml"), &[])
-            .expect_err(line)
-            .to_string();
-        assert!(e.starts_with("t.toml: ") && e.contains(key), "{line}: {e}");
+        let section: FoliageParams = toml::from_str(line).expect(line);
+        let e = section.validate().expect_err(line);
+        assert!(e.get(key).is_some(), "{line}: {e}");
         let e = Classifier::new(params).expect_err(line);
         assert!(e.get(key).is_some(), "{line}: {e}");
     }
     // the bounds themselves are allowed by both
-    let edge =
-        "[foliage]\nk3 = 1000\nd_max_m = 200\nwindow_deg = 0.05\nsector_deg = 5\nthin_min = 9\n";
-    let c = Config::from_toml(edge, std::path::Path::new("t.toml"), &[]).expect("bounds");
-    assert!(Classifier::new(c.foliage).is_ok());
+    let edge = "k3 = 1000\nd_max_m = 200\nwindow_deg = 0.05\nsector_deg = 5\nthin_min = 9\n";
+    let section: FoliageParams = toml::from_str(edge).expect("bounds");
+    assert_eq!(section.validate(), Ok(()));
+    assert!(Classifier::new(section).is_ok());
 }
 
 #[test]

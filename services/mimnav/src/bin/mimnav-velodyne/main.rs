@@ -10,7 +10,9 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use mimnav_shared::config::{Config, VelodyneInput, toml_quote};
+use mimnav_config::Config;
+use mimnav_shared::config::toml_quote;
+use mimnav_velodyne::config::VelodyneInput;
 use mimnav_shared::ipc;
 use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
@@ -53,7 +55,7 @@ mod wired;
 use wired::Wired;
 
 fn main() -> ExitCode {
-    service::main("mimnav-velodyne", |args: Args, config| {
+    service::main("mimnav-velodyne", |args: Args, config: Config| {
         if args.check_config {
             println!("{:#?}", config.velodyne);
             return Ok(ExitCode::SUCCESS);
@@ -64,7 +66,7 @@ fn main() -> ExitCode {
 
 fn run(config: &Config) -> Result<()> {
     let (svc, v) = (Service::open(config, "velodyne")?, &config.velodyne);
-    let asm = AssemblerConfig::from_config(config);
+    let asm = AssemblerConfig::from_config(&config.velodyne);
     let max_scan = max_scan_len(v.rpm, asm.max_duration_ns as f64 * 1e-9);
     let points = ipc::points_publisher(svc.node(), asm.max_points)?;
     let scan = ipc::scan_publisher(svc.node(), max_scan)?;

@@ -10,8 +10,8 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use mimnav_foliage::step::{OdomUse, ScanStep};
-use mimnav_shared::config::Config;
+use mimnav_foliage::step::OdomUse;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics;
@@ -32,19 +32,19 @@ impl ServiceCli for Args {
 }
 
 fn main() -> ExitCode {
-    service::main("mimnav-foliage", |_args: Args, config| {
+    service::main("mimnav-foliage", |_args: Args, config: Config| {
         run(&config).map(|()| ExitCode::SUCCESS)
     })
 }
 
 fn run(config: &Config) -> Result<()> {
-    let mut step = ScanStep::from_config(config)?;
+    let mut step = config.scan_step()?;
     let svc = Service::open(config, "foliage")?;
     let scans = ipc::scan_subscriber(svc.node())?;
     // the sensor's motion between scans, for the carried scans (interpretation 17); optional
     let odom_sub = ipc::odom_subscriber(svc.node())?;
     // as long as the driver's longest scan
-    let asm = AssemblerConfig::from_config(config);
+    let asm = AssemblerConfig::from_config(&config.velodyne);
     let max_returns = max_scan_len(config.velodyne.rpm, asm.max_duration_ns as f64 * 1e-9);
     let alarms = ipc::foliage_publisher(svc.node(), max_returns)?;
     let p = step.params();

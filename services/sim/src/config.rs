@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::check::{Checks, Invalid};
+use mimnav_shared::config::{Checks, Invalid};
 
 /// Return mode the simulated sensor is set to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -20,9 +20,9 @@ pub enum SimReturnMode {
 }
 
 impl SimReturnMode {
-    /// The return-mode byte the sensor writes in its data packets ([`crate::topics::return_mode`]).
+    /// The return-mode byte the sensor writes in its data packets ([`mimnav_shared::topics::return_mode`]).
     pub fn byte(self) -> u8 {
-        use crate::topics::return_mode;
+        use mimnav_shared::topics::return_mode;
         match self {
             SimReturnMode::Strongest => return_mode::STRONGEST,
             SimReturnMode::Last => return_mode::LAST,

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening, ValueSubscriber};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::service::{Health, Service};

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use mimnav_planner::pilot::{Decision, Pilot};
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening, ValuePublisher};
 use mimnav_shared::service::{self, Health, Service, ServiceCli};
 use mimnav_shared::topics::{self, VelocityCommand};
@@ -32,7 +32,7 @@ impl ServiceCli for Args {
 }
 
 fn main() -> ExitCode {
-    service::main("mimnav-planner", |_args: Args, config| {
+    service::main("mimnav-planner", |_args: Args, config: Config| {
         run(&config).map(|()| ExitCode::SUCCESS)
     })
 }
@@ -93,7 +93,7 @@ fn run(config: &Config) -> Result<()> {
         publisher: ipc::cmd_vel_publisher(node)?,
         last_status: u8::MAX,
     };
-    let mut pilot = Pilot::from_config(config);
+    let mut pilot = config.pilot();
     tracing::info!(inflation = ?p.inflation, "topics open: {}", topics::CMD_VEL);
     // a missed deadline on the map is stale input at once, not at the next tick
     let plan_guard = svc.on_deadline(&plan_sub, Duration::from_secs_f64(p.map_max_age_s))?;

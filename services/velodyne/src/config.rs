@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::check::{Checks, Invalid};
+use mimnav_shared::config::{Checks, Invalid};
 
 /// Where the driver's datagrams come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -28,9 +28,9 @@ pub enum ScanReturnSelect {
 }
 
 impl ScanReturnSelect {
-    /// The return type ([`crate::topics::return_type`]) a scan header names this choice by.
+    /// The return type ([`mimnav_shared::topics::return_type`]) a scan header names this choice by.
     pub fn return_type(self) -> u8 {
-        use crate::topics::return_type;
+        use mimnav_shared::topics::return_type;
         match self {
             ScanReturnSelect::Strongest => return_type::STRONGEST,
             ScanReturnSelect::Last => return_type::LAST,

@@ -9,8 +9,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use mimnav_mapper::step::MapStep;
-use mimnav_shared::config::Config;
+use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics::{self, PlanCell, map_status};
@@ -30,7 +29,7 @@ impl ServiceCli for Args {
 }
 
 fn main() -> ExitCode {
-    service::main("mimnav-mapper", |_args: Args, config| {
+    service::main("mimnav-mapper", |_args: Args, config: Config| {
         run(&config).map(|()| ExitCode::SUCCESS)
     })
 }
@@ -39,7 +38,7 @@ fn run(config: &Config) -> Result<()> {
     let svc = Service::open(config, "mapper")?;
     let points = ipc::points_subscriber(svc.node())?;
     let odom_sub = ipc::odom_subscriber(svc.node())?;
-    let mut step = MapStep::from_config(config);
+    let mut step = config.map_step();
     let (grid, n_layers) = (step.mapper().params().grid, step.mapper().layer_count());
     let layers_pub = ipc::layers_publisher(svc.node(), n_layers * grid.len())?;
     let plan_pub = ipc::plan_publisher(svc.node(), grid.len())?;

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Deserializer};
 
-use super::check::{Allowed, Checks, Invalid};
+use mimnav_shared::config::{Allowed, Checks, Invalid};
 
 /// The largest [`FoliageParams::carry_scans`].
 pub const MAX_CARRY_SCANS: usize = 8;

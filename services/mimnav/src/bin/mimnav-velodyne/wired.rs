@@ -4,7 +4,8 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use mimnav_shared::config::{Config, seconds_ns};
+use mimnav_config::Config;
+use mimnav_shared::config::seconds_ns;
 use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, ValuePublisher};
 use mimnav_shared::service::{Health, Service};
 use mimnav_shared::topics::RawPacket;

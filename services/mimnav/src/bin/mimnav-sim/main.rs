@@ -14,7 +14,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use mimnav_shared::service::{self, ServiceCli};
 use mimnav_sim::world::WorldFile;
-use mimnav_sim::{DEFAULT_EPOCH_NS, Sim, SimSettings};
+use mimnav_config::Config;
+use mimnav_sim::{DEFAULT_EPOCH_NS, Sim};
 
 mod live;
 
@@ -67,7 +68,7 @@ impl ServiceCli for Args {
 }
 
 fn main() -> ExitCode {
-    service::main("mimnav-sim", |args: Args, config| {
+    service::main("mimnav-sim", |args: Args, config: Config| {
         let path = (args.world.clone()).unwrap_or_else(|| config.sim.world_path(&config.dir()));
         let world = match WorldFile::load(&path) {
             Ok(w) => w,
@@ -79,7 +80,7 @@ fn main() -> ExitCode {
         let sim = |epoch_ns| {
             Sim::new(
                 world.compile(),
-                SimSettings::from_config(&config),
+                config.sim_settings(),
                 config.sim.seed,
                 epoch_ns,
             )

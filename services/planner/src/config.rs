@@ -2,7 +2,7 @@
 
 use serde::Deserialize;
 
-use super::check::{Checks, Invalid};
+use mimnav_shared::config::{Checks, Invalid};
 
 /// How the planner inflates obstacles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]

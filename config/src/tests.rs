@@ -1,0 +1,171 @@
+//! The config file as a whole: parsing, overrides, profiles, rules between sections, and the
+//! shipped file holding every default.
+
+use std::path::{Path, PathBuf};
+
+use mimnav_shared::config::{Allowed, ConfigError, DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT, ParamError, RobotProfile};
+use mimnav_velodyne::config::VelodyneConfig;
+
+use super::*;
+
+fn parse(text: &str) -> Result<Config, ConfigError> {
+    Config::from_toml(text, Path::new("test.toml"), &[])
+}
+
+#[test]
+fn empty_file_gives_the_documented_defaults() {
+    let c = parse("").expect("defaults");
+    assert_eq!(c.velodyne, VelodyneConfig::default());
+    assert_eq!(c.robot, RobotProfile::default());
+    assert_eq!(c.iceoryx2.global.prefix.to_string(), DEFAULT_IOX2_PREFIX);
+    assert_eq!(c.iceoryx2.global.root_path().to_string(), DEFAULT_IOX2_ROOT);
+}
+
+#[test]
+fn map_age_limit_must_cover_a_revolution() {
+    let e = parse("[velodyne]\nrpm = 300\n").expect_err("0.15 s < 1.2 × 0.2 s");
+    let s = e.to_string();
+    assert!(s.contains("planner.map_max_age_s = 0.15"), "{s}");
+    assert!(s.contains("velodyne.rpm = 300"), "{s}");
+    parse("[velodyne]\nrpm = 300\n[planner]\nmap_max_age_s = 0.25\n").expect("long enough");
+}
+
+#[test]
+fn unknown_key_names_file_line_and_key() {
+    let e = parse("[velodyne]\nrmp = 600\n").expect_err("unknown key");
+    let s = e.to_string();
+    assert!(s.starts_with("test.toml: "), "{s}");
+    assert!(s.contains("rmp"), "{s}");
+    assert!(s.contains("line 2"), "{s}");
+}
+
+#[test]
+fn out_of_range_names_key_and_range() {
+    let e = parse("[velodyne]\nrpm = 50\n").expect_err("range");
+    assert_eq!(
+        e.to_string(),
+        "test.toml: velodyne.rpm = 50 is out of range: allowed 300 to 1200"
+    );
+    let e = parse("[velodyne]\ninput = \"pcap\"\n").expect_err("pcap without file");
+    assert!(e.to_string().contains("velodyne.pcap"), "{e}");
+}
+
+#[test]
+fn a_section_checked_alone_gives_typed_errors() {
+    let v = VelodyneConfig {
+        rpm: 50.0,
+        ..VelodyneConfig::default()
+    };
+    let e = v.validate().expect_err("rpm");
+    assert_eq!(
+        e.get("velodyne.rpm"),
+        Some(&ParamError::OutOfRange {
+            key: "velodyne.rpm".into(),
+            value: 50.0,
+            allowed: Allowed::closed(300.0, 1200.0),
+        })
+    );
+    assert_eq!(Config::default().validate(), Ok(()));
+}
+
+#[test]
+fn surface_cue_needs_no_more_neighbours_than_its_window_holds() {
+    let e =
+        parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 7\n").expect_err("7 of 6");
+    assert_eq!(
+        e.to_string(),
+        "test.toml: mapper.surface_neighbours = 7 must be at most 2 × mapper.surface_window = 6"
+    );
+    assert!(parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 6\n").is_ok());
+    assert!(parse("[mapper]\nsurface_min_returns = 0\nsurface_memory_s = 0\n").is_ok());
+}
+
+#[test]
+fn wrong_type_is_refused() {
+    let e = parse("[velodyne]\ndata_port = \"x\"\n").expect_err("type");
+    assert!(
+        e.to_string().contains("data_port") || e.to_string().contains("line 2"),
+        "{e}"
+    );
+    let e = parse("[velodyne]\ndata_port = 70000\n").expect_err("u16");
+    assert!(e.to_string().contains("line 2"), "{e}");
+}
+
+#[test]
+fn iceoryx2_table_is_passed_and_checked() {
+    let c = parse("[iceoryx2.global]\nprefix = \"abc_\"\n[iceoryx2.defaults.publish-subscribe]\nmax-subscribers = 3\n")
+        .expect("iceoryx2 table");
+    assert_eq!(c.iceoryx2.global.prefix.to_string(), "abc_");
+    assert_eq!(c.iceoryx2.defaults.publish_subscribe.max_subscribers, 3);
+    let e = parse("[iceoryx2.global]\nprefx = \"abc_\"\n").expect_err("unknown iceoryx2 key");
+    assert!(e.to_string().contains("iceoryx2.global.prefx"), "{e}");
+}
+
+#[test]
+fn set_overrides_a_key() {
+    let c = Config::from_toml(
+        "[velodyne]\nrpm = 600\n",
+        Path::new("t.toml"),
+        &[
+            "velodyne.rpm=900".into(),
+            "velodyne.pcap=/data/x.pcap".into(),
+        ],
+    )
+    .expect("override");
+    assert_eq!(c.velodyne.rpm, 900.0);
+    assert_eq!(c.velodyne.pcap, Some(PathBuf::from("/data/x.pcap")));
+    let e =
+        Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
+    assert!(e.to_string().contains("KEY=VALUE"), "{e}");
+    let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.nope=1".into()])
+        .expect_err("unknown");
+    assert!(e.to_string().contains("nope"), "{e}");
+}
+
+#[test]
+fn robot_profile_is_loaded_and_overridden() {
+    let dir = std::env::temp_dir().join(format!("mimnav-config-test-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("robots")).expect("dir");
+    std::fs::write(
+        dir.join("robots/bigbot.toml"),
+        "name = \"bigbot\"\nradius_m = 0.6\nsensor_height_m = 0.7\n",
+    )
+    .expect("write");
+    let path = dir.join("mimnav.toml");
+    let c = Config::from_toml(
+        "[robot]\nprofile = \"bigbot\"\nmax_linear_mps = 0.3\n",
+        &path,
+        &[],
+    )
+    .expect("profile");
+    assert_eq!(c.robot.name, "bigbot");
+    assert_eq!(c.robot.radius_m, 0.6);
+    assert_eq!(c.robot.max_linear_mps, 0.3);
+    let e = Config::from_toml("[robot]\nprofile = \"nobot\"\n", &path, &[])
+        .expect_err("missing profile");
+    assert!(e.to_string().contains("nobot.toml"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `config/mimnav.toml` documents every key at its default: keep it true.
+#[test]
+fn shipped_config_holds_the_defaults() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("mimnav.toml");
+    let c = Config::load(&path, &[]).expect("shipped config loads");
+    let d = Config::default();
+    assert_eq!(c.velodyne, d.velodyne);
+    assert_eq!(c.robot, d.robot);
+    assert_eq!(c.log, d.log);
+    assert_eq!(c.iceoryx2, d.iceoryx2);
+    assert_eq!(c.map, d.map);
+    assert_eq!(c.sim, d.sim);
+    assert_eq!(c.mapper, d.mapper);
+    assert_eq!(c.planner, d.planner);
+    assert_eq!(c.foliage, d.foliage);
+    assert_eq!(c.latency, d.latency);
+    for profile in ["spot", "turtlebot2"] {
+        let c =
+            Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
+        assert_eq!(c.robot.name, profile);
+    }
+}
