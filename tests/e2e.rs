@@ -27,3 +27,5 @@ mod topics_doc;
 mod util;
 /// The VLP-16 driver as a process: replay, UDP, bad input, config errors, SIGTERM.
 mod velodyne;
+/// Generated worlds (issue 22): determinism, well-formedness, reachability, eval per family.
+mod worlds;

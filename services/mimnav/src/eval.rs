@@ -93,28 +93,39 @@ impl Method {
 pub struct EvalArgs {
     /// Worlds (default: the four Table I scenarios in the config's worlds folder).
     #[arg(long = "world", value_name = "FILE")]
-    worlds: Vec<PathBuf>,
+    pub(crate) worlds: Vec<PathBuf>,
+    /// Every *.toml world in this folder (repeatable), e.g. a set `mimnav worlds generate` wrote:
+    /// the table is per family, each world judged passable or not for the robot first.
+    #[arg(long = "worlds", value_name = "DIR")]
+    pub(crate) world_dirs: Vec<PathBuf>,
+    /// A generated set, evaluated per family like `--worlds` (`--family`, `--count`, `--seed`,
+    /// `--split` as for `mimnav worlds generate`).
+    #[command(flatten)]
+    pub(crate) set: crate::worlds::SetArgs,
+    /// Cap every world's time limit at this many seconds (short test runs).
+    #[arg(long, value_name = "S")]
+    pub(crate) time_limit_s: Option<f64>,
     /// Methods (default: all five).
     #[arg(long = "method", value_enum)]
     methods: Vec<Method>,
-    /// Seeds per world and method.
+    /// Seeds per world and method (the simulator's noise; not the worlds' seeds).
     #[arg(long, default_value_t = 20)]
-    seeds: u64,
+    pub(crate) seeds: u64,
     /// The first seed.
     #[arg(long, default_value_t = 1)]
-    first_seed: u64,
+    pub(crate) first_seed: u64,
     /// Parallel episodes (default: one per core).
     #[arg(long)]
-    jobs: Option<usize>,
+    pub(crate) jobs: Option<usize>,
     /// Folder for the trajectory plots (one PNG per world); none written without it.
     #[arg(long, value_name = "DIR")]
     plots: Option<PathBuf>,
     /// One JSON line per episode on standard output, after the table.
     #[arg(long)]
-    json: bool,
+    pub(crate) json: bool,
     /// No progress bar.
     #[arg(long)]
-    quiet: bool,
+    pub(crate) quiet: bool,
 }
 
 /// How an episode ended.
@@ -131,7 +142,8 @@ pub enum Ending {
 }
 
 impl Ending {
-    fn name(self) -> &'static str {
+    /// Name in JSON.
+    pub fn name(self) -> &'static str {
         match self {
             Ending::Success => "success",
             Ending::Contact => "contact",
@@ -350,11 +362,6 @@ fn scenario_worlds(config: &Config) -> Result<Vec<PathBuf>> {
 
 /// Runs the evaluation and prints the table.
 pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
-    let paths = if args.worlds.is_empty() {
-        scenario_worlds(config)?
-    } else {
-        args.worlds.clone()
-    };
     let methods = if args.methods.is_empty() {
         vec![
             Method::Adaptive,
@@ -367,9 +374,25 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
         args.methods.clone()
     };
     anyhow::ensure!(args.seeds > 0, "--seeds must be at least 1");
+    if !args.world_dirs.is_empty() || !args.set.families.is_empty() {
+        anyhow::ensure!(
+            args.plots.is_none(),
+            "--plots draws Table I worlds; not with --worlds or --family"
+        );
+        return crate::family_eval::run(config, args, &methods);
+    }
+    let paths = if args.worlds.is_empty() {
+        scenario_worlds(config)?
+    } else {
+        args.worlds.clone()
+    };
     let mut scenes = Vec::new();
     for p in &paths {
-        scenes.push(WorldFile::load(p)?.compile());
+        let mut scene = WorldFile::load(p)?.compile();
+        if let Some(cap) = args.time_limit_s {
+            scene.time_limit_s = scene.time_limit_s.min(cap);
+        }
+        scenes.push(scene);
     }
     let mut jobs = Vec::new();
     for (w, _) in scenes.iter().enumerate() {

@@ -3,6 +3,7 @@
 
 mod demo;
 mod eval;
+mod family_eval;
 mod foliage_eval;
 mod goal;
 mod install;
@@ -12,6 +13,7 @@ mod replay;
 mod score_map;
 mod sim;
 mod snapshot;
+mod worlds;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -53,6 +55,9 @@ enum Command {
     /// uniform inflation) and the two baselines × seeds, lock-step in-process; success rate,
     /// normalised trajectory length, F-score, trajectory plots.
     Eval(eval::EvalArgs),
+    /// Generated worlds (issue 22): write a set of a family (`generate`), list the families,
+    /// check world files and whether the robot can reach their goal (`check`).
+    Worlds(worlds::WorldsArgs),
     /// The foliage classifier's own evaluation (issue 6): false alarms per 1000 scans in pure
     /// grass, and the share of scans in which a visible trunk or rock raises the alarm, with the
     /// delay, on simulated worlds, standing and moving, lock-step in-process.
@@ -95,6 +100,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => demo::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
         Command::Eval(args) => eval::run(&config, args),
+        Command::Worlds(args) => worlds::run(&config, args),
         Command::FoliageEval(args) => {
             foliage_eval::run(&config, config_path.as_deref(), &cli.set, args)
         }

@@ -5,7 +5,9 @@
 //! Read it in this order: [`world`] (the TOML format and the compiled [`world::Scene`]),
 //! [`geometry`] (ray–shape intersections), [`physics`] (what a beam returns), [`lidar`] (firing
 //! times, azimuths and packets), [`motion`] (the base), [`truth`] (the true map), and [`Sim`],
-//! which runs them together one packet at a time.
+//! which runs them together one packet at a time. [`generate`] draws families of worlds from a
+//! seed and [`reach`] says whether a robot can reach a world's goal at all, by the simulator's own
+//! collision test.
 //!
 //! ```
 //! use mimnav_sim::{Sim, SimSettings, world::WorldFile};
@@ -22,10 +24,12 @@
 
 pub mod blades;
 pub mod config;
+pub mod generate;
 pub mod geometry;
 pub mod lidar;
 pub mod motion;
 pub mod physics;
+pub mod reach;
 pub mod truth;
 pub mod world;
 

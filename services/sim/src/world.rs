@@ -34,13 +34,15 @@
 //! | `[[rock]]` | `center`, `radius` 0.25, `height` 0.3, `reflectivity` 35 | solid (may sit inside grass) |
 //!
 //! `survey = [[x, y], …]` (optional) is the route the map scorer drives; it defaults to the goal.
+//! A `[generated]` table (`family`, `seed`, `index`) records where a world drawn by
+//! [`crate::generate`] came from.
 
 use std::path::Path;
 
 use mimnav_shared::config::{Checks, Invalid};
 use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::cell_class;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Why a world cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -117,7 +119,7 @@ fn d_ground_r() -> f64 {
 }
 
 /// The ground plane.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Ground {
     /// Diffuse reflectivity 0–100.
@@ -134,7 +136,7 @@ impl Default for Ground {
 }
 
 /// `[[wall]]`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Wall {
     /// One end.
@@ -150,7 +152,7 @@ pub struct Wall {
 }
 
 /// `[[pillar]]`: a box.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pillar {
     /// Centre.
@@ -170,7 +172,7 @@ pub struct Pillar {
 }
 
 /// `[[glass]]`: a pane.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Glass {
     /// One end.
@@ -186,7 +188,7 @@ pub struct Glass {
 }
 
 /// `[[curtain]]`: a string or beaded curtain.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Curtain {
     /// One end.
@@ -205,7 +207,7 @@ pub struct Curtain {
 }
 
 /// `[[grass]]`: a patch of tall grass.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Grass {
     /// Centre.
@@ -227,7 +229,7 @@ pub struct Grass {
 }
 
 /// `[[bush]]`: dense foliage.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bush {
     /// Centre.
@@ -246,7 +248,7 @@ pub struct Bush {
 }
 
 /// `[[trunk]]` and `[[rock]]`: vertical cylinders.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Trunk {
     /// Centre.
@@ -263,7 +265,7 @@ pub struct Trunk {
 }
 
 /// `[[rock]]`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Rock {
     /// Centre.
@@ -280,7 +282,7 @@ pub struct Rock {
 }
 
 /// A world file as written.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorldFile {
     /// Short name.
@@ -296,35 +298,51 @@ pub struct WorldFile {
     pub time_limit_s: f64,
     /// Waypoints (x, y) the map scorer drives through, in order (default: the goal): a route
     /// that shows the mapper what the world is about.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub survey: Vec<[f64; 2]>,
     /// The ground.
     #[serde(default)]
     pub ground: Ground,
     /// Walls.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub wall: Vec<Wall>,
     /// Pillars.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pillar: Vec<Pillar>,
     /// Glass panes.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub glass: Vec<Glass>,
     /// Curtains.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub curtain: Vec<Curtain>,
     /// Grass patches.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub grass: Vec<Grass>,
     /// Bushes.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub bush: Vec<Bush>,
     /// Tree trunks.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub trunk: Vec<Trunk>,
     /// Rocks.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rock: Vec<Rock>,
+    /// Where a generated world came from ([`crate::generate`]); absent in hand-made worlds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generated: Option<Generated>,
+}
+
+/// `[generated]`: the family, set seed and index a generated world came from. The same three
+/// give the same file, byte for byte.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Generated {
+    /// The family ([`crate::generate::Family::name`]).
+    pub family: String,
+    /// The set's seed.
+    pub seed: u64,
+    /// The world's index in its set (0-based).
+    pub index: u64,
 }
 
 /// What a beam meets at an object's surface.
@@ -529,7 +547,7 @@ impl WorldFile {
     }
 
     /// Every value refused, each naming its key and what is allowed.
-    fn validate(&self) -> Result<(), Invalid> {
+    pub(crate) fn validate(&self) -> Result<(), Invalid> {
         let mut bad = Checks::default();
         let mut pos = |what: String, v: f64, lo: f64, hi: f64| bad.check(what, v, lo, hi);
         pos("time_limit_s".into(), self.time_limit_s, 1.0, 3600.0);
