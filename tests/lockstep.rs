@@ -18,8 +18,8 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use mimnav_runner::{FoliageUse, Lockstep, Options};
 use mimnav_config::Config;
+use mimnav_runner::{FoliageUse, Lockstep, Options};
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::VelocityCommand;
 use mimnav_sim::world::WorldFile;

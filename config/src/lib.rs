@@ -48,8 +48,8 @@ use std::path::Path;
 use serde::Deserialize;
 
 use mimnav_shared::config::{
-    Checks, Common, CommonTables, ConfigError, DEFAULT_CONFIG_PATH, Invalid, LatencyConfig,
-    Load, LogConfig, MapConfig, apply_overrides, err, seconds_ns, section,
+    Checks, Common, CommonTables, ConfigError, DEFAULT_CONFIG_PATH, Invalid, LatencyConfig, Load,
+    LogConfig, MapConfig, apply_overrides, err, seconds_ns, section,
 };
 
 use mimnav_foliage::FoliageParams;
@@ -182,7 +182,9 @@ impl Config {
             planner: file.planner,
             foliage: file.foliage,
         };
-        config.validate().map_err(|e| ConfigError::invalid(&source, e))?;
+        config
+            .validate()
+            .map_err(|e| ConfigError::invalid(&source, e))?;
         Ok(config)
     }
 

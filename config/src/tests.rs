@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use mimnav_shared::config::{Allowed, ConfigError, DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT, ParamError, RobotProfile};
+use mimnav_shared::config::{
+    Allowed, ConfigError, DEFAULT_IOX2_PREFIX, DEFAULT_IOX2_ROOT, ParamError, RobotProfile,
+};
 use mimnav_velodyne::config::VelodyneConfig;
 
 use super::*;
@@ -77,8 +79,7 @@ fn a_section_checked_alone_gives_typed_errors() {
 
 #[test]
 fn surface_cue_needs_no_more_neighbours_than_its_window_holds() {
-    let e =
-        parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 7\n").expect_err("7 of 6");
+    let e = parse("[mapper]\nsurface_window = 3\nsurface_neighbours = 7\n").expect_err("7 of 6");
     assert_eq!(
         e.to_string(),
         "test.toml: mapper.surface_neighbours = 7 must be at most 2 × mapper.surface_window = 6"
@@ -121,8 +122,7 @@ fn set_overrides_a_key() {
     .expect("override");
     assert_eq!(c.velodyne.rpm, 900.0);
     assert_eq!(c.velodyne.pcap, Some(PathBuf::from("/data/x.pcap")));
-    let e =
-        Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
+    let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.rpm".into()]).expect_err("no =");
     assert!(e.to_string().contains("KEY=VALUE"), "{e}");
     let e = Config::from_toml("", Path::new("t.toml"), &["velodyne.nope=1".into()])
         .expect_err("unknown");
@@ -171,8 +171,7 @@ fn shipped_config_holds_the_defaults() {
     assert_eq!(c.foliage, d.foliage);
     assert_eq!(c.latency, d.latency);
     for profile in ["spot", "turtlebot2"] {
-        let c =
-            Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
+        let c = Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
         assert_eq!(c.robot.name, profile);
     }
 }

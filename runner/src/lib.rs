@@ -23,12 +23,12 @@
 
 use std::time::{Duration, Instant};
 
+use mimnav_config::Config;
 use mimnav_foliage::step::{ScanStep, StepError};
 use mimnav_mapper::baseline::{cloud_occupancy, scan_occupancy};
 use mimnav_mapper::step::{MapStep, Mapped};
 use mimnav_planner::inflate::Inflation;
 use mimnav_planner::pilot::{Decision, Pilot, Refused};
-use mimnav_config::Config;
 use mimnav_shared::faults::Faults;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{

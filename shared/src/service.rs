@@ -72,10 +72,7 @@ pub trait ServiceCli: clap::Parser {
 /// A service's `main`: parses `A`, loads the config (exit 2 on a bad one, naming the file, the
 /// key and its range), sets up logging and the latency settings, then calls `run`. An error from
 /// `run` is logged and printed as `name: error: cause: …` with exit status 1.
-pub fn main<A, C, E>(
-    name: &'static str,
-    run: impl FnOnce(A, C) -> Result<ExitCode, E>,
-) -> ExitCode
+pub fn main<A, C, E>(name: &'static str, run: impl FnOnce(A, C) -> Result<ExitCode, E>) -> ExitCode
 where
     A: ServiceCli,
     C: Load,

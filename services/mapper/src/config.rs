@@ -2,8 +2,8 @@
 
 use serde::Deserialize;
 
-use mimnav_shared::config::{Checks, Invalid};
 use mimnav_shared::config::RobotProfile;
+use mimnav_shared::config::{Checks, Invalid};
 
 /// Unit of a map layer's height interval.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]

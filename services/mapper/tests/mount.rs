@@ -10,8 +10,8 @@
 
 use std::path::PathBuf;
 
-use mimnav_mapper::step::mount_points;
 use mimnav_config::Config;
+use mimnav_mapper::step::mount_points;
 use mimnav_shared::pose::{LidarMount, MountTransform};
 use mimnav_shared::topics::{Point, PointsHeader, cell_class};
 use mimnav_sim::motion::WaypointDriver;
@@ -63,10 +63,7 @@ fn an_offset_yawed_and_tilted_mount_maps_like_a_centred_sensor() {
     };
     let mut mounted_config = config.clone();
     mounted_config.robot.mount = mount;
-    let (mut centred, mut mounted) = (
-        config.map_step(),
-        mounted_config.map_step(),
-    );
+    let (mut centred, mut mounted) = (config.map_step(), mounted_config.map_step());
     // a step that ignores the mount sees another map: the comparison can fail
     let mut ignoring = config.map_step();
     let inverse = MountTransform::inverse_of(&mount);

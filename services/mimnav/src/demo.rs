@@ -17,8 +17,8 @@ use std::process::{ExitCode, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_config::Config;
+use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, PrivateDomain};

@@ -15,11 +15,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
+use mimnav_config::Config;
 use mimnav_mapper::render::{self, Image};
 use mimnav_mapper::score::{MapScore, score};
 use mimnav_planner::inflate::Inflation;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_config::Config;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_shared::topics::{cell_class, command_status};

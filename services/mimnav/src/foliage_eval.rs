@@ -35,8 +35,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_config::Config;
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::topics::{cell_class, foliage_class};
 use mimnav_sim::Outcome;

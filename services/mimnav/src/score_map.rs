@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
+use mimnav_config::Config;
 use mimnav_mapper::score::{ClassScore, MapScore, score, score_excluding};
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
-use mimnav_config::Config;
 use mimnav_sim::Outcome;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;

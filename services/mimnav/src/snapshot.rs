@@ -5,8 +5,8 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use mimnav_mapper::render::{Image, Marks, render_layers, render_map};
 use mimnav_config::Config;
+use mimnav_mapper::render::{Image, Marks, render_layers, render_map};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::pose::{Pose2Ext, pose2};

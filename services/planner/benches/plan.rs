@@ -8,10 +8,10 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use mimnav_planner::inflate::Inflation;
-use mimnav_planner::Planner;
-use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_config::Config;
+use mimnav_planner::Planner;
+use mimnav_planner::inflate::Inflation;
+use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_sim::motion::WaypointDriver;
 use mimnav_sim::world::WorldFile;

@@ -213,9 +213,14 @@ mod tests {
         assert_eq!(body_contact(&scene, &pose2(0.0, 0.0, 0.0), &spot), None);
         assert!(contact(&scene, 0.0, 0.0, spot.enclosing_radius_m()).is_some());
         // turned across it, the same body reaches 0.55 m: it touches
-        assert!(body_contact(&scene, &pose2(0.0, 0.0, std::f64::consts::FRAC_PI_2), &spot).is_some());
+        assert!(
+            body_contact(&scene, &pose2(0.0, 0.0, std::f64::consts::FRAC_PI_2), &spot).is_some()
+        );
         assert!(body_contact(&scene, &pose2(0.0, 0.0, 0.6), &spot).is_some());
         // a round body is tested as before
-        assert_eq!(body_contact(&scene, &pose2(0.0, 0.0, 0.0), &Body::Round(0.2)), None);
+        assert_eq!(
+            body_contact(&scene, &pose2(0.0, 0.0, 0.0), &Body::Round(0.2)),
+            None
+        );
     }
 }

@@ -52,6 +52,9 @@ pub struct WorldError {
     pub path: String,
     /// What is wrong.
     pub message: String,
+    /// The values refused, each naming its key and what is allowed, when that is what is wrong
+    /// (not a file that cannot be read or parsed).
+    pub invalid: Option<Invalid>,
 }
 
 fn d_wall_h() -> f64 {
@@ -529,6 +532,7 @@ impl WorldFile {
         let text = std::fs::read_to_string(path).map_err(|e| WorldError {
             path: shown.clone(),
             message: format!("cannot read: {e}"),
+            invalid: None,
         })?;
         Self::parse(&text, &shown)
     }
@@ -538,10 +542,12 @@ impl WorldFile {
         let w: WorldFile = toml::from_str(text).map_err(|e| WorldError {
             path: source.into(),
             message: e.to_string().trim_end().into(),
+            invalid: None,
         })?;
         w.validate().map_err(|e| WorldError {
             path: source.into(),
             message: e.to_string(),
+            invalid: Some(e),
         })?;
         Ok(w)
     }
@@ -806,5 +812,30 @@ impl WorldFile {
             ground_reflectivity: self.ground.reflectivity,
             objects,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ROOM: &str =
+        "name = \"r\"\nstart = [0.0, 0.0, 0.0]\ngoal = [3.0, 0.0]\ntime_limit_s = 10.0\n";
+
+    #[test]
+    fn a_refused_value_is_named_and_kept_typed() {
+        let e = WorldFile::parse(
+            &format!("{ROOM}[[wall]]\nfrom = [1.0, 0.0]\nto = [1.0, 2.0]\nreflectivity = 900\n"),
+            "w",
+        )
+        .expect_err("reflectivity out of range");
+        assert_eq!(e.path, "w");
+        let invalid = e.invalid.expect("typed");
+        assert!(
+            invalid.0.iter().any(|p| p.key().contains("reflectivity")),
+            "{invalid}"
+        );
+        let e = WorldFile::parse("name = \"r\"\n", "w").expect_err("no start");
+        assert!(e.invalid.is_none() && e.message.contains("start"), "{e}");
     }
 }

@@ -10,9 +10,9 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-use mimnav_velodyne::config::VelodyneConfig;
 use mimnav_shared::topics::Point;
 use mimnav_velodyne::capture::CaptureReader;
+use mimnav_velodyne::config::VelodyneConfig;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig, max_points_per_revolution};
 
 fn data_dir() -> Option<PathBuf> {

@@ -7,9 +7,9 @@
 use std::io::Write;
 use std::net::Ipv4Addr;
 
-use mimnav_velodyne::config::ScanReturnSelect;
 use mimnav_shared::topics::{return_mode, return_type};
 use mimnav_velodyne::capture::{CaptureError, CaptureReader, PcapDatagramWriter};
+use mimnav_velodyne::config::ScanReturnSelect;
 use mimnav_velodyne::packet::{
     BLOCKS, CHANNELS, DataPacket, PositionPacket, encode_data_packet, encode_position_packet,
 };

@@ -301,4 +301,3 @@ impl Common {
         Ok(())
     }
 }
-

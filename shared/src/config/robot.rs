@@ -268,8 +268,18 @@ mod tests {
         assert_eq!(b.half_width_m(), 0.25);
         let outline = b.outline(0.02);
         assert!(outline.len() >= 160, "{}", outline.len());
-        assert!(outline.iter().all(|p| b.signed_distance(p[0], p[1]).abs() < 1e-9));
-        assert_eq!(Body::Round(0.2).discs(0.03), vec![Disc { x_m: 0.0, radius_m: 0.2 }]);
+        assert!(
+            outline
+                .iter()
+                .all(|p| b.signed_distance(p[0], p[1]).abs() < 1e-9)
+        );
+        assert_eq!(
+            Body::Round(0.2).discs(0.03),
+            vec![Disc {
+                x_m: 0.0,
+                radius_m: 0.2
+            }]
+        );
     }
 
     #[test]

@@ -11,8 +11,8 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::Result;
-use mimnav_planner::pilot::{Decision, Pilot};
 use mimnav_config::Config;
+use mimnav_planner::pilot::{Decision, Pilot};
 use mimnav_shared::ipc::{self, Listening, ValuePublisher};
 use mimnav_shared::service::{self, Health, Service, ServiceCli};
 use mimnav_shared::topics::{self, VelocityCommand};

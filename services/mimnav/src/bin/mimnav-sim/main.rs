@@ -12,9 +12,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use mimnav_config::Config;
 use mimnav_shared::service::{self, ServiceCli};
 use mimnav_sim::world::WorldFile;
-use mimnav_config::Config;
 use mimnav_sim::{DEFAULT_EPOCH_NS, Sim};
 
 mod live;
