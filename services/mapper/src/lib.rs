@@ -638,6 +638,7 @@ impl Mapper {
     /// opening test too.
     fn detect_glass(&mut self) {
         let (m, minus, grid) = (self.bounds.len(), self.roles[3], self.params.grid);
+        let glass_intensity = self.params.mapper.glass_intensity as f32;
         let mut glass_cells = std::mem::take(&mut self.glass_cells);
         glass_cells.clear();
         self.sightings.clear();
@@ -668,6 +669,18 @@ impl Mapper {
                 padded.push(*rr);
                 index.push(Some(n));
             }
+            // the revolution is cut wherever its time runs out, and a spike lying across the
+            // cut would be lost at both ends of the ring: start the ring at its faintest return
+            // instead (a full ring is a circle)
+            if let Some(start) = padded
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.intensity.total_cmp(&b.1.intensity))
+                .map(|(j, _)| j)
+            {
+                padded.rotate_left(start);
+                index.rotate_left(start);
+            }
             detect_spikes(
                 &padded,
                 &self.params.mapper,
@@ -695,7 +708,12 @@ impl Mapper {
                     count += 1;
                     if let Some((r, c)) = grid.cell_of(x, y) {
                         let i = grid.index(r, c);
-                        if self.layer[i * m + minus].count == 0 {
+                        // equation 6's I_{z=0} ⊖ I_{z=−ε}: the −ε layer sees an opaque surface
+                        // in the cell; a spike there too (a laser at the edge of the pane's
+                        // specular cone) is the same glass, not something the difference removes
+                        let below = &self.layer[i * m + minus];
+                        if below.count == 0 || below.sum >= glass_intensity * f32::from(below.count)
+                        {
                             glass_cells.push(i);
                             self.sighting_points.push((x, y, owner));
                             seen += 1;

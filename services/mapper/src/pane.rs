@@ -17,10 +17,17 @@
 //! that line over its evidence and, beyond it and across gaps in it, up to `glass_extend_m`
 //! from the nearest evidence — until something contradicts it:
 //! - a beam that crossed the line within `glass_normal_deg` of the line's normal and returned
-//!   from beyond it without a spike: glass there would have returned the spike (the *open*
-//!   evidence, kept like the glass evidence: an opening seen once stays open);
+//!   from beyond it, in a revolution whose ring shows no spike near that normal at all: glass
+//!   there would have returned the spike (the *open* evidence, kept like the glass evidence: an
+//!   opening seen once stays open, and glass evidence in the same spot wins over it);
 //! - a solid or passable cell of this revolution on the line (a frame, a wall, a curtain in the
 //!   way: the pane ends there).
+//!
+//! Past the part of an opening seen squarely the line is drawn on again (up to `glass_extend_m`
+//! from it): an opening is as wide as it was seen. Its far edge — a pane's end — returns no spike
+//! to a robot beside the opening (the nearest point of a pane's end is not where a beam meets it
+//! squarely), and a robot that turned into an opening seen only in part struck that edge in the
+//! tuning runs.
 //!
 //! Beams that cross the line at other angles say nothing: glass lets them through. This is how
 //! Visagge (Foster et al., cited in `cartographer-glass.txt`) keeps glass by the angles it was
@@ -323,11 +330,17 @@ impl Panes {
             let normal_bearing = ny.atan2(nx) - yaw;
             let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
             let open = &mut p.open;
+            let half_deg = normal_rad.to_degrees() + 1.0;
             for ring in rings {
-                ring.around(centre_deg, normal_rad.to_degrees() + 1.0, |r| {
-                    if r.spike {
-                        return;
-                    }
+                // a spike near the normal: glass is there, and the beams beside it are at the
+                // edge of its cone (or beyond the pane's end, which the next revolutions see
+                // squarely as the robot moves on)
+                let mut spiked = false;
+                ring.around(centre_deg, half_deg, |r| spiked |= r.spike);
+                if spiked {
+                    continue;
+                }
+                ring.around(centre_deg, half_deg, |r| {
                     let bearing = f64::from(r.y).atan2(f64::from(r.x));
                     let off = wrap(bearing - normal_bearing);
                     if off.abs() > normal_rad {
@@ -403,7 +416,7 @@ impl Panes {
             let ((px, py), (ux, uy)) = p.line;
             let along = |x: f64, y: f64| (x - px) * ux + (y - py) * uy;
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for &(x, y, _) in p.glass.values() {
+            for &(x, y, _) in p.glass.values().chain(p.open.values()) {
                 let s = along(x, y);
                 lo = lo.min(s);
                 hi = hi.max(s);
@@ -413,16 +426,16 @@ impl Panes {
             self.bins.clear();
             self.bins.resize(n, UNSEEN);
             let bin = |s: f64| ((s - lo) / bin_m).round() as isize;
-            for &(x, y, _) in p.open.values() {
-                let b = bin(along(x, y));
-                if (0..n as isize).contains(&b) {
-                    self.bins[b as usize] = OPEN;
-                }
-            }
-            for &(x, y, _) in p.glass.values() {
-                let b = bin(along(x, y));
-                if (0..n as isize).contains(&b) {
-                    self.bins[b as usize] = GLASS;
+            // an entry stands for its cell: the bins on either side of it too (a bin is half a
+            // cell); glass over open where they meet
+            for (evidence, state) in [(&p.open, OPEN), (&p.glass, GLASS)] {
+                for &(x, y, _) in evidence.values() {
+                    let b = bin(along(x, y));
+                    for b in b - 1..=b + 1 {
+                        if (0..n as isize).contains(&b) {
+                            self.bins[b as usize] = state;
+                        }
+                    }
                 }
             }
             self.bin_cells.clear();
@@ -438,15 +451,17 @@ impl Panes {
                 })
             };
             let limit = (extend_m / bin_m).round() as usize;
-            // forward, then backward: a bin is reached within `limit` bins of glass evidence
-            // with no open bin and nothing solid or passable between
+            // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
+            // glass or open, with nothing solid or passable between
             for forward in [true, false] {
                 let mut run: Option<usize> = None;
                 for k in 0..n {
                     let b = if forward { k } else { n - 1 - k };
                     match self.bins[b] {
-                        GLASS => run = Some(0),
-                        OPEN => run = None,
+                        // past the end of what was seen open the pane may go on: an opening
+                        // is no wider than the part of it seen squarely (its far edge, a pane's
+                        // end, never returns a spike to a robot beside it)
+                        GLASS | OPEN => run = Some(0),
                         _ if blocked(self.bin_cells[b]) => run = None,
                         _ => {
                             run = run.map(|r| r + 1).filter(|&r| r <= limit);
