@@ -425,12 +425,20 @@ impl Mapper {
         // line while nothing contradicts it; drawn afresh each revolution from the evidence, so
         // an extension never feeds the next one
         if let Some(pose) = self.last_pose {
+            // unknown behind a nearer return in its direction: hidden (inside a pillar), not open
+            // space beyond a pane with nothing behind it
+            let (reach, cell_bin, cell_range) = (&self.reach, &self.cell_bin, &self.cell_range);
+            let occluded = |i: usize| {
+                let r = reach[usize::from(cell_bin[i])];
+                r > 0.0 && r < cell_range[i]
+            };
             let drawn = self.panes.draw(
                 &pose,
                 grid,
                 self.params.mapper.glass_extend_m,
                 &mut self.classes,
                 &mut self.cost,
+                occluded,
             );
             stats.glass_extended = drawn.extended;
         }

@@ -21,7 +21,8 @@
 //!   there would have returned the spike (the *open* evidence, kept like the glass evidence: an
 //!   opening seen once stays open, and glass evidence in the same spot wins over it);
 //! - a solid or passable cell of this revolution on the line (a frame, a wall, a curtain in the
-//!   way: the pane ends there).
+//!   way: the pane ends there), or an unknown cell that something nearer hides (the inside of the
+//!   pillar a pane meets: its far side is not this pane's to close).
 //!
 //! Past the part of an opening seen squarely the line is drawn on again (up to `glass_extend_m`
 //! from it): an opening is as wide as it was seen. Its far edge — a pane's end — returns no spike
@@ -379,8 +380,9 @@ impl Panes {
 
     /// Draws the panes into `classes`/`cost` seen from `pose`: the evidence as glass (over
     /// anything but solid), and each pane seen in two revolutions or more extended along its line
-    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell
-    /// and at the grid's edge. Returns what was drawn.
+    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell,
+    /// at an unknown cell something nearer hides (`occluded`: the inside of a pillar the pane
+    /// meets) and at the grid's edge. Returns what was drawn.
     pub fn draw(
         &mut self,
         pose: &Pose2,
@@ -388,6 +390,7 @@ impl Panes {
         extend_m: f64,
         classes: &mut [u8],
         cost: &mut [u8],
+        occluded: impl Fn(usize) -> bool,
     ) -> Drawn {
         let frame = Frame::of(pose);
         let mut drawn = Drawn::default();
@@ -447,7 +450,9 @@ impl Panes {
             }
             let blocked = |c: Option<usize>| {
                 c.is_none_or(|i| {
-                    classes[i] == cell_class::SOLID || classes[i] == cell_class::PASSABLE
+                    classes[i] == cell_class::SOLID
+                        || classes[i] == cell_class::PASSABLE
+                        || (classes[i] == cell_class::UNKNOWN && occluded(i))
                 })
             };
             let limit = (extend_m / bin_m).round() as usize;
