@@ -25,7 +25,8 @@
 //!   pillar a pane meets: its far side is not this pane's to close).
 //!
 //! Past the part of an opening seen squarely the line is drawn on again (up to `glass_extend_m`
-//! from it): an opening is as wide as it was seen. Its far edge — a pane's end — returns no spike
+//! from it): an opening is as wide as it was seen — unless the line meets something solid first
+//! (then it is a passage beside a frame). Its far edge — a pane's end — returns no spike
 //! to a robot beside the opening (the nearest point of a pane's end is not where a beam meets it
 //! squarely), and a robot that turned into an opening seen only in part struck that edge in the
 //! tuning runs.
@@ -457,21 +458,42 @@ impl Panes {
             };
             let limit = (extend_m / bin_m).round() as usize;
             // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
-            // glass or open, with nothing solid or passable between
+            // glass or open, with nothing solid or passable between; a run from open evidence
+            // that ends at something solid or passable is dropped — the rest of an opening
+            // between a frame and what was seen open (a passage beside a pillar), not a pane
+            // that may go on past a door
             for forward in [true, false] {
-                let mut run: Option<usize> = None;
+                let mut run: Option<(usize, bool)> = None;
+                let mut run_bins: Vec<usize> = Vec::new();
                 for k in 0..n {
                     let b = if forward { k } else { n - 1 - k };
                     match self.bins[b] {
-                        // past the end of what was seen open the pane may go on: an opening
-                        // is no wider than the part of it seen squarely (its far edge, a pane's
-                        // end, never returns a spike to a robot beside it)
-                        GLASS | OPEN => run = Some(0),
-                        _ if blocked(self.bin_cells[b]) => run = None,
+                        GLASS => {
+                            run = Some((0, false));
+                            run_bins.clear();
+                        }
+                        OPEN => {
+                            run = Some((0, true));
+                            run_bins.clear();
+                        }
+                        _ if blocked(self.bin_cells[b]) => {
+                            if run.is_some_and(|(_, from_open)| from_open) {
+                                for &q in &run_bins {
+                                    self.reach[q] = false;
+                                }
+                            }
+                            run = None;
+                            run_bins.clear();
+                        }
                         _ => {
-                            run = run.map(|r| r + 1).filter(|&r| r <= limit);
+                            run = run.map(|(r, o)| (r + 1, o)).filter(|&(r, _)| r <= limit);
                             if run.is_some() {
+                                if !self.reach[b] {
+                                    run_bins.push(b);
+                                }
                                 self.reach[b] = true;
+                            } else {
+                                run_bins.clear();
                             }
                         }
                     }
