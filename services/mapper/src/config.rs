@@ -90,16 +90,19 @@ pub struct MapperConfig {
     pub glass_gradient: f64,
     /// Glass: the spike is at most this wide, degrees of azimuth.
     pub glass_width_deg: f64,
-    /// Glass: the ranges at both edges of the spike agree within this, m.
+    /// Glass: the ranges of the spike's own returns agree within this (one surface), m. What lies
+    /// beside the spike (behind the glass) is not compared.
     pub glass_range_tolerance_m: f64,
     /// Detected glass is kept this long, s.
     pub glass_memory_s: f64,
     /// Detected glass farther than this from the robot is forgotten, m.
     pub glass_memory_m: f64,
-    /// Gaps up to this long between glass detections along a pane are filled, m.
-    pub glass_gap_fill_m: f64,
-    /// A pane is extended along its line through free cells to a solid cell within this, m
-    /// (0: never).
+    /// Glass returns a spike within this angle of normal incidence: a beam this close to a
+    /// pane's normal that crosses its line and returns from beyond without a spike shows an
+    /// opening there, degrees.
+    pub glass_normal_deg: f64,
+    /// A pane is extended along its fitted line up to this far from its evidence, across gaps
+    /// and beyond its ends, until an opening, a solid or a passable cell, m (0: never).
     pub glass_extend_m: f64,
     /// Planning cost of a passable cell, 0–1 (free 0, solid and glass 1).
     pub passable_cost: f64,
@@ -135,7 +138,7 @@ impl Default for MapperConfig {
             glass_range_tolerance_m: 0.3,
             glass_memory_s: 120.0,
             glass_memory_m: 8.0,
-            glass_gap_fill_m: 0.8,
+            glass_normal_deg: 2.0,
             glass_extend_m: 3.0,
             passable_cost: 0.2,
             odom_max_age_s: 0.5,
@@ -248,7 +251,7 @@ impl MapperConfig {
         );
         r.check("mapper.glass_memory_s", self.glass_memory_s, 0.0, 86400.0);
         r.check("mapper.glass_memory_m", self.glass_memory_m, 0.0, 1000.0);
-        r.check("mapper.glass_gap_fill_m", self.glass_gap_fill_m, 0.0, 10.0);
+        r.check("mapper.glass_normal_deg", self.glass_normal_deg, 0.1, 30.0);
         r.check("mapper.glass_extend_m", self.glass_extend_m, 0.0, 20.0);
         r.check("mapper.passable_cost", self.passable_cost, 0.0, 1.0);
         r.check("mapper.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);

@@ -44,6 +44,7 @@
 pub mod baseline;
 pub mod config;
 pub mod glass;
+pub mod pane;
 pub mod render;
 pub mod score;
 pub mod step;
@@ -54,7 +55,8 @@ use crate::config::{LayerConfig, LayerUnit, MapperConfig};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::{Point, cell_class, return_type};
 
-use crate::glass::{Frame, GlassMemory, RingReturn, detect_spikes};
+use crate::glass::{Frame, RingReturn, detect_spikes};
+use crate::pane::{Panes, RayReturn, Ring, Sighting};
 use mimnav_shared::pose::{Pose2, Pose2Ext};
 
 /// Everything the mapper is set by: the grid of `[map]`, the robot of `[robot]` (the sensor's
@@ -177,18 +179,23 @@ pub struct Mapper {
     /// Cells written in this revolution (cleared at the next).
     touched: Vec<u32>,
     dirty: Vec<bool>,
-    /// Cells the glass memory covers, this revolution.
-    glass_drawn: Vec<usize>,
     /// Glass detected in this revolution (cell indices, sorted, unique).
     glass_cells: Vec<usize>,
-    /// Scratch flags for drawing the memory (all false between updates).
-    glass_marked: Vec<bool>,
     reach: Vec<f32>,
     cell_range: Vec<f32>,
     cell_bin: Vec<u16>,
     classes: Vec<u8>,
     cost: Vec<u8>,
-    memory: GlassMemory,
+    /// Glass panes: every spike sighting, kept in the odometry frame (equations 6–7).
+    panes: Panes,
+    /// This revolution's spike sightings (robot frame).
+    sightings: Vec<Sighting>,
+    /// Their spike returns the −ε layer does not see: (x, y, sighting).
+    sighting_points: Vec<(f32, f32, u32)>,
+    /// The near-horizontal rings as the panes' opening test reads them.
+    pane_rings: Vec<Ring>,
+    /// Scratch: spike runs along one ring.
+    runs: Vec<(usize, usize)>,
     /// Cells the surface cue made solid, kept in the odometry frame like glass.
     surface_kept: Kept,
     /// Cells the surface cue made solid in this revolution.
@@ -200,7 +207,9 @@ pub struct Mapper {
     /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
-    rings: Vec<Vec<(RingReturn, u32)>>,
+    /// Per zero-layer laser, in firing order: each strongest return, its point's index and its
+    /// de-skewed position.
+    rings: Vec<Vec<(RingReturn, u32, f32, f32)>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
     spikes: Vec<bool>,
@@ -276,15 +285,17 @@ impl Mapper {
             evidence: vec![Evidence::default(); n2],
             touched: Vec::with_capacity(n2),
             dirty: vec![false; n2],
-            glass_drawn: Vec::new(),
             glass_cells: Vec::new(),
-            glass_marked: vec![false; n2],
             reach: vec![0.0; REACH_BINS],
             cell_range,
             cell_bin,
             classes: vec![cell_class::UNKNOWN; n2],
             cost: vec![0; n2],
-            memory: GlassMemory::new(f64::from(params.grid.cell_m)),
+            panes: Panes::new(f64::from(params.grid.cell_m)),
+            sightings: Vec::new(),
+            sighting_points: Vec::new(),
+            pane_rings: Vec::new(),
+            runs: Vec::new(),
             surface_kept: Kept::new(n2),
             surface_cells: Vec::new(),
             tall_kept: Kept::new(n2),
@@ -373,11 +384,11 @@ impl Mapper {
         // equations 1–2, the rings for the glass spike and the dual-return cues
         self.bin(points, odom, &mut stats);
         // glass seen in this revolution (Algorithm 1 and equation 6's layer difference)
-        self.detect_glass(points);
+        self.detect_glass();
         stats.glass_detected = self.glass_cells.len() as u32;
-        // the glass memory (equations 6 and 7)
+        // the panes (equations 6 and 7)
         self.remember_glass(odom, now_ns);
-        stats.glass_memory = self.memory.len() as u32;
+        stats.glass_memory = self.panes.evidence_len() as u32;
         // classes (equations 3–5) and cost
         let surface_min_returns = returns(self.params.mapper.surface_min_returns);
         let surface_cue = surface_min_returns > 0;
@@ -403,32 +414,31 @@ impl Mapper {
         stats.surface_memory = self.surface_kept.len() as u32;
         self.remember_tall(odom, now_ns);
         stats.tall_memory = self.tall_kept.len() as u32;
-        for &i in &self.glass_drawn {
-            if self.classes[i] != cell_class::SOLID {
-                self.classes[i] = cell_class::GLASS;
-                self.cost[i] = 255;
-            }
-        }
         for &i in &self.glass_cells {
             self.classes[i] = cell_class::GLASS;
             self.cost[i] = 255;
         }
-        // extrapolate panes to the solid structure that holds them; drawn afresh each revolution
-        // from the detections only, so an extrapolation never feeds the next one
-        self.glass_drawn.extend_from_slice(&self.glass_cells);
-        let added = glass::extend_to_solids(
-            &self.glass_drawn,
-            &self.classes,
-            grid,
-            EXTEND_LINK_M,
-            self.params.mapper.glass_extend_m as f32,
-            &mut self.glass_marked,
-        );
-        for &i in &added {
-            self.classes[i] = cell_class::GLASS;
-            self.cost[i] = 255;
+        // the panes: their evidence (equation 7's union), and each extended along its fitted
+        // line while nothing contradicts it; drawn afresh each revolution from the evidence, so
+        // an extension never feeds the next one
+        if let Some(pose) = self.last_pose {
+            // unknown behind a nearer return in its direction: hidden (inside a pillar), not open
+            // space beyond a pane with nothing behind it
+            let (reach, cell_bin, cell_range) = (&self.reach, &self.cell_bin, &self.cell_range);
+            let occluded = |i: usize| {
+                let r = reach[usize::from(cell_bin[i])];
+                r > 0.0 && r < cell_range[i]
+            };
+            let drawn = self.panes.draw(
+                &pose,
+                grid,
+                self.params.mapper.glass_extend_m,
+                &mut self.classes,
+                &mut self.cost,
+                occluded,
+            );
+            stats.glass_extended = drawn.extended;
         }
-        stats.glass_extended = added.len() as u32;
         stats
     }
 }
@@ -444,7 +454,6 @@ impl Mapper {
             self.dirty[i] = false;
         }
         self.touched.clear();
-        self.glass_drawn.clear();
         self.reach.fill(0.0);
         for r in &mut self.rings {
             r.clear();
@@ -512,11 +521,13 @@ impl Mapper {
             {
                 ring.push((
                     RingReturn {
-                        azimuth_deg: f32::from(p.azimuth_cdeg) * 0.01,
+                        azimuth_deg: f32::from(az_cdeg) * 0.01,
                         intensity: f32::from(p.intensity),
                         range_m: horizontal,
                     },
                     k as u32,
+                    p.x,
+                    p.y,
                 ));
             }
             // a dual pair that differs (last, then strongest, same firing): the nearer return
@@ -627,23 +638,30 @@ impl Mapper {
 
     /// Glass in this revolution: spikes along the near-horizontal rings (Algorithm 1 of
     /// `cartographer-glass.txt`) in cells the −ε layer does not see (equation 6's layer
-    /// difference), into `self.glass_cells`.
-    fn detect_glass(&mut self, points: &[Point]) {
+    /// difference), into `self.glass_cells`; each spike with such a cell is a sighting of a pane
+    /// (its centre, and its normal: the beam at the spike's centre). The rings go to the panes'
+    /// opening test too.
+    fn detect_glass(&mut self) {
         let (m, minus, grid) = (self.bounds.len(), self.roles[3], self.params.grid);
+        let glass_intensity = self.params.mapper.glass_intensity as f32;
         let mut glass_cells = std::mem::take(&mut self.glass_cells);
         glass_cells.clear();
-        // glass in this revolution: spikes along the near-horizontal rings (Algorithm 1) in cells
-        // the −ε layer does not see (equation 6's layer difference)
+        self.sightings.clear();
+        self.sighting_points.clear();
+        if self.pane_rings.len() != self.rings.len() {
+            self.pane_rings.resize(self.rings.len(), Ring::default());
+        }
         // rings stay in firing order: the azimuth grows (wrapping at 360°) along them
         let mut padded: Vec<RingReturn> = Vec::new();
-        let mut index: Vec<Option<u32>> = Vec::new();
-        for ring in &self.rings {
+        let mut index: Vec<Option<usize>> = Vec::new();
+        for (ring, rays) in self.rings.iter().zip(&mut self.pane_rings) {
+            rays.clear();
             if ring.len() < 3 {
                 continue;
             }
             padded.clear();
             index.clear();
-            for (n, (rr, k)) in ring.iter().enumerate() {
+            for (n, (rr, ..)) in ring.iter().enumerate() {
                 if n > 0 && (rr.azimuth_deg - ring[n - 1].0.azimuth_deg).rem_euclid(360.0) > 0.5 {
                     // a firing without a return: intensity 0, range 0
                     padded.push(RingReturn {
@@ -654,20 +672,74 @@ impl Mapper {
                     index.push(None);
                 }
                 padded.push(*rr);
-                index.push(Some(*k));
+                index.push(Some(n));
             }
-            detect_spikes(&padded, &self.params.mapper, &mut self.spikes);
-            for (n, g) in self.spikes.iter().enumerate() {
-                if !g {
+            // the revolution is cut wherever its time runs out, and a spike lying across the
+            // cut would be lost at both ends of the ring: start the ring at its faintest return
+            // instead (a full ring is a circle)
+            if let Some(start) = padded
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.intensity.total_cmp(&b.1.intensity))
+                .map(|(j, _)| j)
+            {
+                padded.rotate_left(start);
+                index.rotate_left(start);
+            }
+            detect_spikes(
+                &padded,
+                &self.params.mapper,
+                &mut self.spikes,
+                &mut self.runs,
+            );
+            for (pn, n) in index.iter().enumerate() {
+                if let Some(n) = *n {
+                    let (rr, _, x, y) = ring[n];
+                    rays.push(RayReturn {
+                        azimuth_deg: rr.azimuth_deg.rem_euclid(360.0),
+                        x,
+                        y,
+                        spike: self.spikes[pn],
+                    });
+                }
+            }
+            for &(first, last) in &self.runs {
+                let owner = self.sightings.len() as u32;
+                let (mut sx, mut sy, mut count, mut seen) = (0.0f64, 0.0f64, 0usize, 0usize);
+                for n in index[first..=last].iter().flatten() {
+                    let (_, _, x, y) = ring[*n];
+                    sx += f64::from(x);
+                    sy += f64::from(y);
+                    count += 1;
+                    if let Some((r, c)) = grid.cell_of(x, y) {
+                        let i = grid.index(r, c);
+                        // equation 6's I_{z=0} ⊖ I_{z=−ε}: the −ε layer sees an opaque surface
+                        // in the cell; a spike there too (a laser at the edge of the pane's
+                        // specular cone) is the same glass, not something the difference removes
+                        let below = &self.layer[i * m + minus];
+                        if below.count == 0 || below.sum >= glass_intensity * f32::from(below.count)
+                        {
+                            glass_cells.push(i);
+                            self.sighting_points.push((x, y, owner));
+                            seen += 1;
+                        }
+                    }
+                }
+                if seen == 0 || count == 0 {
                     continue;
                 }
-                let Some(k) = index[n] else { continue };
-                let p = &points[k as usize];
-                if let Some((r, c)) = grid.cell_of(p.x, p.y) {
-                    let i = grid.index(r, c);
-                    if self.layer[i * m + minus].count == 0 {
-                        glass_cells.push(i);
-                    }
+                let (cx, cy) = (sx / count as f64, sy / count as f64);
+                let d = cx.hypot(cy);
+                if d > 1e-3 {
+                    self.sightings.push(Sighting {
+                        x: cx,
+                        y: cy,
+                        nx: cx / d,
+                        ny: cy / d,
+                    });
+                } else {
+                    // no direction: drop its points
+                    self.sighting_points.retain(|q| q.2 != owner);
                 }
             }
         }
@@ -676,18 +748,22 @@ impl Mapper {
         self.glass_cells = glass_cells;
     }
 
-    /// Equations 6 and 7: this revolution's glass into the memory in the odometry frame, old
-    /// entries forgotten, the memory drawn around the robot.
+    /// Equations 6 and 7: this revolution's sightings and opening evidence into the panes in
+    /// the odometry frame, old evidence forgotten.
     fn remember_glass(&mut self, odom: OdomInput, now_ns: u64) {
-        let grid = self.params.grid;
-        // the memory (equations 6 and 7)
         match odom {
             OdomInput::Fresh(Odom { pose, .. }) => {
-                for &i in &self.glass_cells {
-                    let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
-                    self.memory.add(&pose, f64::from(x), f64::from(y), now_ns);
-                }
-                self.memory.expire(
+                let mp = &self.params.mapper;
+                self.panes.observe(
+                    &pose,
+                    now_ns,
+                    &self.sightings,
+                    &self.sighting_points,
+                    &self.pane_rings,
+                    mp.glass_normal_deg.to_radians(),
+                    mp.glass_memory_m,
+                );
+                self.panes.expire(
                     &pose,
                     now_ns,
                     self.params.glass_memory_ns(),
@@ -696,15 +772,6 @@ impl Mapper {
                 self.last_pose = Some(pose);
             }
             OdomInput::Stale | OdomInput::Missing => {}
-        }
-        if let Some(pose) = self.last_pose {
-            self.memory.draw(
-                &pose,
-                grid,
-                self.params.mapper.glass_gap_fill_m,
-                &mut self.glass_drawn,
-                &mut self.glass_marked,
-            );
         }
     }
 
@@ -1044,9 +1111,6 @@ fn near3(n: usize, i: usize, f: impl Fn(usize) -> bool) -> bool {
     (r.saturating_sub(1)..=(r + 1).min(n - 1))
         .any(|rr| (c.saturating_sub(1)..=(c + 1).min(n - 1)).any(|cc| f(rr * n + cc)))
 }
-
-/// Glass cells closer than this belong to one pane when extrapolating, m.
-const EXTEND_LINK_M: f32 = 0.3;
 
 /// One layer of one cell.
 #[derive(Debug, Clone, Copy, Default)]

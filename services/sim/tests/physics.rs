@@ -261,7 +261,7 @@ fn bundled_worlds() -> Vec<PathBuf> {
 #[test]
 fn every_bundled_world_decodes_without_errors() {
     let worlds = bundled_worlds();
-    assert_eq!(worlds.len(), 6, "{worlds:?}");
+    assert_eq!(worlds.len(), 8, "{worlds:?}");
     for path in worlds {
         let w = WorldFile::load(&path).expect("bundled world is valid");
         let scene = w.compile();

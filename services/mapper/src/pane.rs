@@ -1,0 +1,521 @@
+//! Glass panes: every spike sighting over time, fitted as segments with their evidence, extended
+//! along the fitted line while nothing contradicts it, and kept by the angles they were seen from.
+//!
+//! A pane returns light to the sensor only near normal incidence (DESIGN §6; the intensity spike
+//! of `cartographer-glass.txt`). So one spike says two things: a point of the pane (the spike's
+//! returns) and the pane's orientation — the beam at the centre of the spike *is* the pane's
+//! normal, because the spike is symmetric about normal incidence. As the robot moves, the foot of
+//! its perpendicular on the pane slides along it, and with it the spot the spike comes from: the
+//! sightings of one pane fall on one line. [`Panes`] gathers them in the odometry frame
+//! (equation 6 of `mim-lidar-intensity-navigation.txt`: I_FN^t = T · (I_{z=0} ⊖ I_{z=−ε}), the
+//! spike cells the −ε layer does not see, moved by the odometry T) and keeps their union
+//! (equation 7: I_FN^{t+1} = I_FN^{t+1} ∪ I_FN^t; every detected cell is drawn as glass while
+//! it is remembered, whatever is seen later).
+//!
+//! Each pane's line is fitted to its evidence (the spike returns; while they span less than
+//! [`FIT_SPAN_M`], the mean of the normals the spikes were seen along). The pane is drawn along
+//! that line over its evidence and, beyond it and across gaps in it, up to `glass_extend_m`
+//! from the nearest evidence — until something contradicts it:
+//! - a beam that crossed the line within `glass_normal_deg` of the line's normal and returned
+//!   from beyond it, in a revolution whose ring shows no spike near that normal at all: glass
+//!   there would have returned the spike (the *open* evidence, kept like the glass evidence: an
+//!   opening seen once stays open, and glass evidence in the same spot wins over it);
+//! - a solid or passable cell of this revolution on the line (a frame, a wall, a curtain in the
+//!   way: the pane ends there), or an unknown cell that something nearer hides (the inside of the
+//!   pillar a pane meets: its far side is not this pane's to close).
+//!
+//! Past the part of an opening seen squarely the line is drawn on again (up to `glass_extend_m`
+//! from it): an opening is as wide as it was seen — unless the line meets something solid first
+//! (then it is a passage beside a frame). Its far edge — a pane's end — returns no spike
+//! to a robot beside the opening (the nearest point of a pane's end is not where a beam meets it
+//! squarely), and a robot that turned into an opening seen only in part struck that edge in the
+//! tuning runs.
+//!
+//! Beams that cross the line at other angles say nothing: glass lets them through. This is how
+//! Visagge (Foster et al., cited in `cartographer-glass.txt`) keeps glass by the angles it was
+//! seen from, and how Cartographer_glass keeps detected glass against later misses: a miss
+//! counts only from an angle where glass would have given a return.
+
+use std::collections::HashMap;
+
+use mimnav_shared::grid::GridSpec;
+use mimnav_shared::pose::{Pose2, Pose2Ext};
+use mimnav_shared::topics::cell_class;
+
+use crate::glass::Frame;
+
+/// A sighting joins a pane whose normal is within this of its own, rad (5°).
+const JOIN_ANGLE_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
+/// ... and whose line passes within this of the sighting's centre, m.
+const JOIN_OFFSET_M: f64 = 0.2;
+/// Evidence spanning less than this along the pane is fitted by its normals, not its points, m.
+pub const FIT_SPAN_M: f64 = 1.0;
+/// A beam must end at least this far beyond the line to count as passing through it, m.
+const BEYOND_M: f64 = 0.25;
+/// A pane is extended only once it has been seen in at least this many revolutions: one stray
+/// spike does not draw a line across the map.
+const MIN_REVOLUTIONS: u32 = 2;
+/// Lines nearer the sensor than this are not tested for openings (the beams cross them at
+/// angles the robot's own motion blurs), m.
+const MIN_TEST_M: f64 = 0.3;
+
+/// One spike seen in one revolution, in the robot frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sighting {
+    /// Centre of the spike's returns, m.
+    pub x: f64,
+    /// Centre of the spike's returns, m.
+    pub y: f64,
+    /// Unit normal of the pane (the beam direction at the spike's centre), x.
+    pub nx: f64,
+    /// Unit normal, y.
+    pub ny: f64,
+}
+
+/// A return of a near-horizontal ring as the opening test needs it (robot frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayReturn {
+    /// Azimuth, degrees clockwise from x, [0, 360) (the sensor's convention).
+    pub azimuth_deg: f32,
+    /// Position, m.
+    pub x: f32,
+    /// Position, m.
+    pub y: f32,
+    /// Part of an intensity spike.
+    pub spike: bool,
+}
+
+/// One near-horizontal ring, in firing order, with the index of its first return in each whole
+/// degree of azimuth, so a pane's normal finds its few returns without a pass over the ring.
+#[derive(Debug, Clone, Default)]
+pub struct Ring {
+    returns: Vec<RayReturn>,
+    first: Vec<u32>,
+}
+
+impl Ring {
+    /// Empties the ring.
+    pub fn clear(&mut self) {
+        self.returns.clear();
+        self.first.clear();
+        self.first.resize(360, u32::MAX);
+    }
+
+    /// Appends a return (in firing order: azimuth growing, wrapping once at 360°).
+    pub fn push(&mut self, r: RayReturn) {
+        if self.first.len() != 360 {
+            self.first.resize(360, u32::MAX);
+        }
+        let d = (r.azimuth_deg as usize).min(359);
+        if self.first[d] == u32::MAX {
+            self.first[d] = self.returns.len() as u32;
+        }
+        self.returns.push(r);
+    }
+
+    /// Calls `f` with every return whose azimuth lies within `half_deg` of `centre_deg`
+    /// (whole degrees: a few more than that).
+    fn around(&self, centre_deg: f64, half_deg: f64, mut f: impl FnMut(&RayReturn)) {
+        if self.returns.is_empty() {
+            return;
+        }
+        let lo = (centre_deg - half_deg).floor() as i64;
+        let hi = (centre_deg + half_deg).floor() as i64;
+        for d in lo..=hi {
+            let d = d.rem_euclid(360) as usize;
+            let start = self.first[d];
+            if start == u32::MAX {
+                continue;
+            }
+            for r in &self.returns[start as usize..] {
+                if (r.azimuth_deg as usize).min(359) != d {
+                    break;
+                }
+                f(r);
+            }
+        }
+    }
+}
+
+/// Evidence kept in the odometry frame, one entry per cell-sized key.
+type Evidence = HashMap<(i64, i64), (f64, f64, u64)>;
+
+/// One pane: its glass and open evidence and its fitted line (odometry frame).
+#[derive(Debug, Clone)]
+struct Pane {
+    glass: Evidence,
+    open: Evidence,
+    /// Sum of the sightings' doubled normal angles (cos, sin): the axial mean normal.
+    normal_sum: (f64, f64),
+    /// A point of the line and its unit direction.
+    line: ((f64, f64), (f64, f64)),
+    revolutions: u32,
+    last_revolution_ns: u64,
+}
+
+impl Pane {
+    /// Refits the line to the glass evidence (total least squares once it is long enough, the
+    /// mean normal before).
+    fn refit(&mut self) {
+        let n = self.glass.len() as f64;
+        if n == 0.0 {
+            return;
+        }
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for &(x, y, _) in self.glass.values() {
+            sx += x;
+            sy += y;
+        }
+        let (mx, my) = (sx / n, sy / n);
+        let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+        for &(x, y, _) in self.glass.values() {
+            let (dx, dy) = (x - mx, y - my);
+            sxx += dx * dx;
+            syy += dy * dy;
+            sxy += dx * dy;
+        }
+        let along = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (ux, uy) = (along.cos(), along.sin());
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &(x, y, _) in self.glass.values() {
+            let s = (x - mx) * ux + (y - my) * uy;
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        let dir = if hi - lo >= FIT_SPAN_M {
+            (ux, uy)
+        } else {
+            // the normal's axial mean, turned a quarter
+            let a = 0.5 * self.normal_sum.1.atan2(self.normal_sum.0);
+            (-a.sin(), a.cos())
+        };
+        self.line = ((mx, my), dir);
+    }
+
+    /// Whether a sighting (odometry frame: centre and normal angle) lies on this pane's line.
+    fn accepts(&self, (x, y): (f64, f64), normal_angle: f64) -> bool {
+        let ((px, py), (ux, uy)) = self.line;
+        let offset = (-(x - px) * uy + (y - py) * ux).abs();
+        // axial difference between the sighting's normal and the line's normal (-uy, ux)
+        let d = (normal_angle - ux.atan2(-uy)).rem_euclid(std::f64::consts::PI);
+        let d = d.min(std::f64::consts::PI - d);
+        offset <= JOIN_OFFSET_M && d <= JOIN_ANGLE_RAD
+    }
+}
+
+/// What [`Panes::draw`] added to the map.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Drawn {
+    /// Cells of glass evidence drawn.
+    pub evidence: u32,
+    /// Cells drawn by extending panes along their lines.
+    pub extended: u32,
+}
+
+/// Every pane seen, in the odometry frame.
+#[derive(Debug, Clone, Default)]
+pub struct Panes {
+    panes: Vec<Pane>,
+    cell_m: f64,
+    /// Scratch per bin along a line: 0 unknown, 1 glass, 2 open.
+    bins: Vec<u8>,
+    bin_cells: Vec<Option<usize>>,
+    reach: Vec<bool>,
+}
+
+const UNSEEN: u8 = 0;
+const GLASS: u8 = 1;
+const OPEN: u8 = 2;
+
+fn key(x: f64, y: f64, cell_m: f64) -> (i64, i64) {
+    ((x / cell_m).floor() as i64, (y / cell_m).floor() as i64)
+}
+
+impl Panes {
+    /// No panes; evidence closer than `cell_m` merges.
+    pub fn new(cell_m: f64) -> Self {
+        Panes {
+            cell_m: cell_m.max(1e-3),
+            ..Panes::default()
+        }
+    }
+
+    /// Panes held.
+    pub fn len(&self) -> usize {
+        self.panes.len()
+    }
+
+    /// True when no pane is held.
+    pub fn is_empty(&self) -> bool {
+        self.panes.is_empty()
+    }
+
+    /// Glass evidence entries held (all panes).
+    pub fn evidence_len(&self) -> usize {
+        self.panes.iter().map(|p| p.glass.len()).sum()
+    }
+
+    /// Adds one revolution seen from `pose` at `now_ns` (equations 6 and 7): the sightings with
+    /// their spike returns (`points[k]` for the sighting `owner[k]`, robot frame), then, for every
+    /// pane, the open evidence of the `rings` (the returns within `normal_rad` of a pane's normal
+    /// that passed its line without a spike), for panes within `max_m`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn observe(
+        &mut self,
+        pose: &Pose2,
+        now_ns: u64,
+        sightings: &[Sighting],
+        points: &[(f32, f32, u32)],
+        rings: &[Ring],
+        normal_rad: f64,
+        max_m: f64,
+    ) {
+        let frame = Frame::of(pose);
+        let yaw = pose.yaw();
+        let cell_m = self.cell_m;
+        let mut owner = vec![usize::MAX; sightings.len()];
+        for (k, s) in sightings.iter().enumerate() {
+            let c = frame.to_odom(s.x, s.y);
+            let angle = s.ny.atan2(s.nx) + yaw;
+            let found = self.panes.iter().position(|p| p.accepts(c, angle));
+            let j = match found {
+                Some(j) => j,
+                None => {
+                    let (ux, uy) = (-angle.sin(), angle.cos());
+                    self.panes.push(Pane {
+                        glass: HashMap::new(),
+                        open: HashMap::new(),
+                        normal_sum: (0.0, 0.0),
+                        line: (c, (ux, uy)),
+                        revolutions: 0,
+                        last_revolution_ns: u64::MAX,
+                    });
+                    self.panes.len() - 1
+                }
+            };
+            owner[k] = j;
+            let p = &mut self.panes[j];
+            p.normal_sum.0 += (2.0 * angle).cos();
+            p.normal_sum.1 += (2.0 * angle).sin();
+            if p.last_revolution_ns != now_ns {
+                p.last_revolution_ns = now_ns;
+                p.revolutions += 1;
+            }
+        }
+        for &(x, y, s) in points {
+            let Some(&j) = owner.get(s as usize) else {
+                continue;
+            };
+            let (ox, oy) = frame.to_odom(f64::from(x), f64::from(y));
+            self.panes[j]
+                .glass
+                .insert(key(ox, oy, cell_m), (ox, oy, now_ns));
+        }
+        for &j in &owner {
+            if j != usize::MAX {
+                self.panes[j].refit();
+            }
+        }
+        // open evidence: beams near a pane's normal that passed its line without a spike
+        let (sx, sy) = (pose.x(), pose.y());
+        for p in &mut self.panes {
+            let ((px, py), (ux, uy)) = p.line;
+            // the foot of the sensor's perpendicular on the line, and its distance
+            let s_foot = (sx - px) * ux + (sy - py) * uy;
+            let (fx, fy) = (px + s_foot * ux, py + s_foot * uy);
+            let (nx, ny) = (fx - sx, fy - sy);
+            let d = nx.hypot(ny);
+            if !(MIN_TEST_M..=max_m).contains(&d) {
+                continue;
+            }
+            // the normal's bearing in the robot frame, and as the sensor's azimuth (clockwise)
+            let normal_bearing = ny.atan2(nx) - yaw;
+            let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
+            let open = &mut p.open;
+            let half_deg = normal_rad.to_degrees() + 1.0;
+            for ring in rings {
+                // a spike near the normal: glass is there, and the beams beside it are at the
+                // edge of its cone (or beyond the pane's end, which the next revolutions see
+                // squarely as the robot moves on)
+                let mut spiked = false;
+                ring.around(centre_deg, half_deg, |r| spiked |= r.spike);
+                if spiked {
+                    continue;
+                }
+                ring.around(centre_deg, half_deg, |r| {
+                    let bearing = f64::from(r.y).atan2(f64::from(r.x));
+                    let off = wrap(bearing - normal_bearing);
+                    if off.abs() > normal_rad {
+                        return;
+                    }
+                    let t = d / off.cos();
+                    if f64::from(r.x).hypot(f64::from(r.y)) < t + BEYOND_M {
+                        return;
+                    }
+                    // where the beam crossed the line (odometry frame)
+                    let b = bearing + yaw;
+                    let (ox, oy) = (sx + t * b.cos(), sy + t * b.sin());
+                    open.insert(key(ox, oy, cell_m), (ox, oy, now_ns));
+                });
+            }
+        }
+    }
+
+    /// Forgets evidence older than `max_age_ns` or farther than `max_m` from `pose`, and panes
+    /// left without glass evidence.
+    pub fn expire(&mut self, pose: &Pose2, now_ns: u64, max_age_ns: u64, max_m: f64) {
+        let (x0, y0) = (pose.x(), pose.y());
+        let keep = |e: &mut (f64, f64, u64)| {
+            now_ns.saturating_sub(e.2) <= max_age_ns && (e.0 - x0).hypot(e.1 - y0) <= max_m
+        };
+        for p in &mut self.panes {
+            let before = p.glass.len();
+            p.glass.retain(|_, e| keep(e));
+            p.open.retain(|_, e| keep(e));
+            if p.glass.len() != before {
+                p.refit();
+            }
+        }
+        self.panes.retain(|p| !p.glass.is_empty());
+    }
+
+    /// Draws the panes into `classes`/`cost` seen from `pose`: the evidence as glass (over
+    /// anything but solid), and each pane seen in two revolutions or more extended along its line
+    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell,
+    /// at an unknown cell something nearer hides (`occluded`: the inside of a pillar the pane
+    /// meets) and at the grid's edge. Returns what was drawn.
+    pub fn draw(
+        &mut self,
+        pose: &Pose2,
+        grid: GridSpec,
+        extend_m: f64,
+        classes: &mut [u8],
+        cost: &mut [u8],
+        occluded: impl Fn(usize) -> bool,
+    ) -> Drawn {
+        let frame = Frame::of(pose);
+        let mut drawn = Drawn::default();
+        let bin_m = f64::from(grid.cell_m) * 0.5;
+        let cell = |x: f64, y: f64| -> Option<usize> {
+            let (rx, ry) = frame.to_robot(x, y);
+            grid.cell_of(rx as f32, ry as f32)
+                .map(|(r, c)| grid.index(r, c))
+        };
+        for p in &self.panes {
+            // the evidence itself (equation 7's union)
+            for &(x, y, _) in p.glass.values() {
+                if let Some(i) = cell(x, y)
+                    && classes[i] != cell_class::SOLID
+                {
+                    if classes[i] != cell_class::GLASS {
+                        drawn.evidence += 1;
+                    }
+                    classes[i] = cell_class::GLASS;
+                    cost[i] = 255;
+                }
+            }
+            if extend_m <= 0.0 || p.revolutions < MIN_REVOLUTIONS {
+                continue;
+            }
+            let ((px, py), (ux, uy)) = p.line;
+            let along = |x: f64, y: f64| (x - px) * ux + (y - py) * uy;
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for &(x, y, _) in p.glass.values().chain(p.open.values()) {
+                let s = along(x, y);
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+            let (lo, hi) = (lo - extend_m, hi + extend_m);
+            let n = ((hi - lo) / bin_m).ceil() as usize + 1;
+            self.bins.clear();
+            self.bins.resize(n, UNSEEN);
+            let bin = |s: f64| ((s - lo) / bin_m).round() as isize;
+            // an entry stands for its cell: the bins on either side of it too (a bin is half a
+            // cell); glass over open where they meet
+            for (evidence, state) in [(&p.open, OPEN), (&p.glass, GLASS)] {
+                for &(x, y, _) in evidence.values() {
+                    let b = bin(along(x, y));
+                    for b in b - 1..=b + 1 {
+                        if (0..n as isize).contains(&b) {
+                            self.bins[b as usize] = state;
+                        }
+                    }
+                }
+            }
+            self.bin_cells.clear();
+            self.reach.clear();
+            self.reach.resize(n, false);
+            for b in 0..n {
+                let s = lo + b as f64 * bin_m;
+                self.bin_cells.push(cell(px + s * ux, py + s * uy));
+            }
+            let blocked = |c: Option<usize>| {
+                c.is_none_or(|i| {
+                    classes[i] == cell_class::SOLID
+                        || classes[i] == cell_class::PASSABLE
+                        || (classes[i] == cell_class::UNKNOWN && occluded(i))
+                })
+            };
+            let limit = (extend_m / bin_m).round() as usize;
+            // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
+            // glass or open, with nothing solid or passable between; a run from open evidence
+            // that ends at something solid or passable is dropped — the rest of an opening
+            // between a frame and what was seen open (a passage beside a pillar), not a pane
+            // that may go on past a door
+            for forward in [true, false] {
+                let mut run: Option<(usize, bool)> = None;
+                let mut run_bins: Vec<usize> = Vec::new();
+                for k in 0..n {
+                    let b = if forward { k } else { n - 1 - k };
+                    match self.bins[b] {
+                        GLASS => {
+                            run = Some((0, false));
+                            run_bins.clear();
+                        }
+                        OPEN => {
+                            run = Some((0, true));
+                            run_bins.clear();
+                        }
+                        _ if blocked(self.bin_cells[b]) => {
+                            if run.is_some_and(|(_, from_open)| from_open) {
+                                for &q in &run_bins {
+                                    self.reach[q] = false;
+                                }
+                            }
+                            run = None;
+                            run_bins.clear();
+                        }
+                        _ => {
+                            run = run.map(|(r, o)| (r + 1, o)).filter(|&(r, _)| r <= limit);
+                            if run.is_some() {
+                                if !self.reach[b] {
+                                    run_bins.push(b);
+                                }
+                                self.reach[b] = true;
+                            } else {
+                                run_bins.clear();
+                            }
+                        }
+                    }
+                }
+            }
+            for b in 0..n {
+                if self.reach[b]
+                    && let Some(i) = self.bin_cells[b]
+                    && classes[i] != cell_class::GLASS
+                {
+                    classes[i] = cell_class::GLASS;
+                    cost[i] = 255;
+                    drawn.extended += 1;
+                }
+            }
+        }
+        drawn
+    }
+}
+
+/// An angle wrapped into (−π, π].
+fn wrap(a: f64) -> f64 {
+    let t = (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI);
+    t - std::f64::consts::PI
+}
