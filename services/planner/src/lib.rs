@@ -22,7 +22,9 @@ pub mod params;
 pub mod pilot;
 pub mod route;
 
+use mimnav_shared::config::Body;
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::topics::cell_class;
 
 use clearance::Clearance;
 use dwa::DwaOutcome;
@@ -64,6 +66,8 @@ pub struct Planner {
     cost: Vec<u8>,
     clear: Clearance,
     route: Route,
+    /// The map with the cells under a rectangular body made free (see [`Planner::plan`]).
+    own: Vec<u8>,
 }
 
 impl Planner {
@@ -76,6 +80,7 @@ impl Planner {
             cost: Vec::new(),
             clear: Clearance::default(),
             route: Route::default(),
+            own: Vec::new(),
         }
     }
 
@@ -98,6 +103,18 @@ impl Planner {
         if classes.len() != grid.len() || grid.is_empty() {
             return DwaOutcome::Blocked;
         }
+        // Nothing solid can be where the robot's body is (it would have touched it): a cell
+        // under a rectangular body marked solid or glass — a pane drawn along its line through
+        // the robot, a corner's stray return — is a mapping error, and left in place it blocks
+        // every motion at once (Spot stood still for the rest of its run). The round body keeps
+        // the map as it is: its centre test stops it inside an obstacle, as before.
+        let classes = match p.robot.body() {
+            body @ Body::Rectangle { .. } => {
+                free_under_body(classes, grid, &body, &mut self.own);
+                &self.own[..]
+            }
+            Body::Round(_) => classes,
+        };
         inflate::plan_cost(
             classes,
             grid,
@@ -137,6 +154,30 @@ impl Planner {
     /// The route of the last map.
     pub fn route(&self) -> &Route {
         &self.route
+    }
+}
+
+/// `classes` with every solid or glass cell under `body` (at the map's centre, heading along x)
+/// made free, into `out`: every cell whose centre lies within the body or within ¾ of a cell of
+/// its outline, so that the cells the outline's own points fall in are free too.
+fn free_under_body(classes: &[u8], grid: GridSpec, body: &Body, out: &mut Vec<u8>) {
+    out.clear();
+    out.extend_from_slice(classes);
+    let edge = 0.75 * f64::from(grid.cell_m);
+    let reach = body.enclosing_radius_m() as f32 + grid.cell_m;
+    let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(-reach, -reach), grid.cell_of(reach, reach))
+    else {
+        return;
+    };
+    for r in r0.min(r1)..=r0.max(r1) {
+        for c in c0.min(c1)..=c0.max(c1) {
+            let i = grid.index(r, c);
+            let blocking = matches!(out[i], cell_class::SOLID | cell_class::GLASS);
+            let (x, y) = grid.center_of(r, c);
+            if blocking && body.signed_distance(f64::from(x), f64::from(y)) < edge {
+                out[i] = cell_class::FREE;
+            }
+        }
     }
 }
 
@@ -204,5 +245,37 @@ mod tests {
             0.0,
             (4.0, 0.0)
         )));
+    }
+
+    #[test]
+    fn a_stray_glass_cell_under_a_rectangular_body_does_not_freeze_it() {
+        // a pane drawn along its line through Spot's front corner; the real glass beyond
+        let (grid, classes) = crate::clearance::tests::map(|x, y| {
+            let on_line = (y - (x - 0.45)).abs() < 0.04;
+            if on_line && x > 0.4 {
+                cell_class::GLASS
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut p = PlannerParams::default();
+        (p.robot.radius_m, p.robot.length_m, p.robot.width_m) = (0.6, 1.1, 0.5);
+        let mut spot = Planner::new(p.clone());
+        match spot.plan(&classes, grid, 0.0, 0.0, (-3.0, 0.0)) {
+            DwaOutcome::Drive { .. } => {}
+            o => panic!("backs away from the pane: {o:?}"),
+        }
+        // the glass outside the body stays: a rollout through it is refused
+        let mut straight = p;
+        straight.planner.omega_samples = 1;
+        straight.robot.max_angular_rps = 0.0;
+        let mut ahead = Planner::new(straight);
+        assert!(
+            !matches!(
+                ahead.plan(&classes, grid, 0.5, 0.0, (3.0, 0.0)),
+                DwaOutcome::Drive { v, .. } if v > 0.3
+            ),
+            "drives into the pane"
+        );
     }
 }
