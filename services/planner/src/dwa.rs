@@ -20,8 +20,6 @@
 use mimnav_shared::grid::GridSpec;
 
 use crate::clearance::Clearance;
-use mimnav_shared::config::Body;
-
 use crate::params::{OUTLINE_SPACING_M, PlannerParams};
 use crate::route::Route;
 
@@ -72,22 +70,23 @@ pub fn plan(
     let dt_s = pl.dt_s;
     let steps = (pl.horizon_s / dt_s).ceil().max(1.0) as usize;
     let start_to_go = to_go(0.0, 0.0);
+    // The clearance where the robot stands, at a point of its body; none off the map or in an
+    // obstacle cell, where it can only be blocked.
+    let start_clear = |x: f64, y: f64| {
+        grid.cell_of(x as f32, y as f32)
+            .map(|(r, c)| f64::from(clear.at(r, c)))
+            .filter(|&c| c > 0.0)
+    };
+    // Each disc of the body's cover: its offset along the heading and the clearance it needs.
     // Closer than the footprint and margin already (a late detection, or a cell misjudged
-    // solid): motions that get no closer still are allowed, so the robot can back out instead
-    // of freezing; a robot inside an obstacle cell can only be blocked.
-    // each disc of the body's cover: its offset along the heading and the clearance it needs
+    // solid): motions that get no closer still are allowed, so the robot can move away instead
+    // of freezing.
     let mut discs: Vec<(f64, f64)> = Vec::new();
     for d in p.footprint_discs() {
-        let Some(start_clear) = grid
-            .cell_of(d.x_m as f32, 0.0)
-            .map(|(r, c)| f64::from(clear.at(r, c)))
-        else {
+        let Some(start) = start_clear(d.x_m, 0.0) else {
             return DwaOutcome::Blocked;
         };
-        if start_clear <= 0.0 {
-            return DwaOutcome::Blocked;
-        }
-        discs.push((d.x_m, (d.radius_m + pl.margin_m).min(start_clear)));
+        discs.push((d.x_m, (d.radius_m + pl.margin_m).min(start)));
     }
     // a centre this clear leaves every disc clear (a cell of slack for the grid's steps)
     let centre_enough = discs
@@ -104,16 +103,10 @@ pub fn plan(
     let floor = 0.5 * pl.margin_m + 0.5 * OUTLINE_SPACING_M;
     let mut closest = f64::INFINITY;
     for [bx, by] in p.outline() {
-        let Some(start_clear) = grid
-            .cell_of(bx as f32, by as f32)
-            .map(|(r, c)| f64::from(clear.at(r, c)))
-        else {
+        let Some(start) = start_clear(bx, by) else {
             return DwaOutcome::Blocked;
         };
-        if start_clear <= 0.0 {
-            return DwaOutcome::Blocked;
-        }
-        closest = closest.min(start_clear);
+        closest = closest.min(start);
     }
     let full = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
     let outline_need = if closest >= full {
@@ -123,27 +116,15 @@ pub fn plan(
     } else {
         closest
     };
-    // the outline's sides: a corner, the unit direction along the side, its length
-    let sides: Vec<([f64; 2], [f64; 2], f64)> = match p.robot.body() {
-        Body::Round(_) => Vec::new(),
-        Body::Rectangle { length_m, width_m } => {
-            let (hl, hw) = (0.5 * length_m, 0.5 * width_m);
-            vec![
-                ([hl, hw], [-1.0, 0.0], length_m),
-                ([-hl, hw], [0.0, -1.0], width_m),
-                ([-hl, -hw], [1.0, 0.0], length_m),
-                ([hl, -hw], [0.0, 1.0], width_m),
-            ]
-        }
-    };
+    let sides = p.robot.body().sides();
     let cell_m = f64::from(grid.cell_m);
     // Walks each side: a point with clearance c ≥ need proves the next c − need of the side
     // clear, and the spacing's half in `need` covers the step beyond that.
     let outline_too_close = |x: f64, y: f64, hc: f64, hs: f64| {
-        sides.iter().any(|&(a, u, len)| {
+        sides.iter().any(|side| {
             let mut t = 0.0;
-            while t <= len {
-                let (bx, by) = (a[0] + u[0] * t, a[1] + u[1] * t);
+            while t <= side.len_m {
+                let [bx, by] = side.at(t);
                 let (wx, wy) = (x + hc * bx - hs * by, y + hs * bx + hc * by);
                 let c = grid
                     .cell_of(wx as f32, wy as f32)
@@ -152,7 +133,7 @@ pub fn plan(
                     return true;
                 }
                 // a cell less: the clearance is a cell centre's, a point of it may be nearer
-                t += (c - outline_need - cell_m).clamp(0.0, len) + OUTLINE_SPACING_M;
+                t += (c - outline_need - cell_m).clamp(0.0, side.len_m) + OUTLINE_SPACING_M;
             }
             false
         })

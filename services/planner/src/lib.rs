@@ -109,11 +109,12 @@ impl Planner {
         // every motion at once (Spot stood still for the rest of its run). The round body keeps
         // the map as it is: its centre test stops it inside an obstacle, as before.
         let classes = match p.robot.body() {
-            body @ Body::Rectangle { .. } => {
-                free_under_body(classes, grid, &body, &mut self.own);
+            body @ Body::Rectangle { .. }
+                if free_under_body(classes, grid, &body, &mut self.own) =>
+            {
                 &self.own[..]
             }
-            Body::Round(_) => classes,
+            _ => classes,
         };
         inflate::plan_cost(
             classes,
@@ -159,26 +160,33 @@ impl Planner {
 
 /// `classes` with every solid or glass cell under `body` (at the map's centre, heading along x)
 /// made free, into `out`: every cell whose centre lies within the body or within ¾ of a cell of
-/// its outline, so that the cells the outline's own points fall in are free too.
-fn free_under_body(classes: &[u8], grid: GridSpec, body: &Body, out: &mut Vec<u8>) {
-    out.clear();
-    out.extend_from_slice(classes);
+/// its outline, so that the cells the outline's own points fall in are free too. False, and
+/// `out` untouched, when no such cell is there (the map is copied only when it changes).
+fn free_under_body(classes: &[u8], grid: GridSpec, body: &Body, out: &mut Vec<u8>) -> bool {
     let edge = 0.75 * f64::from(grid.cell_m);
     let reach = body.enclosing_radius_m() as f32 + grid.cell_m;
-    let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(-reach, -reach), grid.cell_of(reach, reach))
+    let (Some((r0, c0)), Some((r1, c1))) =
+        (grid.cell_of(-reach, -reach), grid.cell_of(reach, reach))
     else {
-        return;
+        return false;
     };
+    let mut copied = false;
     for r in r0.min(r1)..=r0.max(r1) {
         for c in c0.min(c1)..=c0.max(c1) {
             let i = grid.index(r, c);
-            let blocking = matches!(out[i], cell_class::SOLID | cell_class::GLASS);
+            let blocking = matches!(classes[i], cell_class::SOLID | cell_class::GLASS);
             let (x, y) = grid.center_of(r, c);
             if blocking && body.signed_distance(f64::from(x), f64::from(y)) < edge {
+                if !copied {
+                    out.clear();
+                    out.extend_from_slice(classes);
+                    copied = true;
+                }
                 out[i] = cell_class::FREE;
             }
         }
     }
+    copied
 }
 
 #[cfg(test)]

@@ -28,6 +28,8 @@
 use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
+use mimnav_shared::config::Invalid;
+
 use crate::geometry::footprint_distance;
 use crate::world::{
     Bush, Curtain, Generated, Glass, Grass, Ground, Pillar, Rock, Trunk, Wall, WorldFile,
@@ -188,15 +190,57 @@ pub fn generate_set(family: Family, seed: u64, count: u64) -> Vec<WorldFile> {
     (0..count).map(|i| generate(family, seed, i)).collect()
 }
 
+/// Why a generated world is not well-formed ([`check`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Malformed {
+    /// A value out of its range (the checks of [`WorldFile::parse`]).
+    #[error("{0}")]
+    Values(Invalid),
+    /// The world has no object.
+    #[error("no objects")]
+    NoObjects,
+    /// The start or the goal lies outside the extent of the world's objects.
+    #[error("{what} {at:?} outside the world's extent")]
+    Outside {
+        /// `start` or `goal`.
+        what: &'static str,
+        /// Where, m.
+        at: [f64; 2],
+    },
+    /// The start is nearer an object than [`START_CLEARANCE_M`].
+    #[error(
+        "start {at:?} only {distance_m:.2} m from object {object} (needs {START_CLEARANCE_M} m)"
+    )]
+    StartCrowded {
+        /// Where, m.
+        at: [f64; 2],
+        /// How far from the object, m.
+        distance_m: f64,
+        /// The object's index in the compiled scene.
+        object: usize,
+    },
+    /// The goal is nearer a blocking object than [`GOAL_CLEARANCE_M`].
+    #[error("goal {at:?} within {GOAL_CLEARANCE_M} m of object {object}")]
+    GoalCrowded {
+        /// Where, m.
+        at: [f64; 2],
+        /// The object's index in the compiled scene.
+        object: usize,
+    },
+    /// Start and goal are less than 3 m apart.
+    #[error("start and goal closer than 3 m")]
+    TooShort,
+}
+
 /// Why a world is not well-formed, or `Ok`: every value in range (the checks of
 /// [`WorldFile::parse`]); start and goal inside the extent of the world's objects; the start at
 /// least [`START_CLEARANCE_M`] from every object (blocking or not); the goal point at least
 /// [`GOAL_CLEARANCE_M`] from every blocking object; start and goal at least 3 m apart.
-pub fn check(world: &WorldFile) -> Result<(), String> {
-    world.validate().map_err(|e| e.to_string())?;
+pub fn check(world: &WorldFile) -> Result<(), Malformed> {
+    world.validate().map_err(Malformed::Values)?;
     let scene = world.compile();
     if scene.objects.is_empty() {
-        return Err("no objects".into());
+        return Err(Malformed::NoObjects);
     }
     let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
     for o in &scene.objects {
@@ -210,26 +254,35 @@ pub fn check(world: &WorldFile) -> Result<(), String> {
     let s = [scene.start[0], scene.start[1]];
     let goal = scene.goal;
     if !inside(s) {
-        return Err(format!("start {s:?} outside the world's extent"));
+        return Err(Malformed::Outside {
+            what: "start",
+            at: s,
+        });
     }
     if !inside(goal) {
-        return Err(format!("goal {goal:?} outside the world's extent"));
+        return Err(Malformed::Outside {
+            what: "goal",
+            at: goal,
+        });
     }
     for (i, o) in scene.objects.iter().enumerate() {
         let d = footprint_distance(&o.shape, s) - o.truth_margin_m;
         if d < START_CLEARANCE_M {
-            return Err(format!(
-                "start {s:?} only {d:.2} m from object {i} (needs {START_CLEARANCE_M} m)"
-            ));
+            return Err(Malformed::StartCrowded {
+                at: s,
+                distance_m: d,
+                object: i,
+            });
         }
         if o.blocks && footprint_distance(&o.shape, goal) < GOAL_CLEARANCE_M {
-            return Err(format!(
-                "goal {goal:?} within {GOAL_CLEARANCE_M} m of object {i}"
-            ));
+            return Err(Malformed::GoalCrowded {
+                at: goal,
+                object: i,
+            });
         }
     }
     if (goal[0] - s[0]).hypot(goal[1] - s[1]) < 3.0 {
-        return Err("start and goal closer than 3 m".into());
+        return Err(Malformed::TooShort);
     }
     Ok(())
 }
@@ -1139,5 +1192,22 @@ mod tests {
             }
         }
         assert!(max > 50.0, "steep partitions drawn: {max}");
+    }
+
+    #[test]
+    fn a_malformed_world_says_which_rule_it_breaks() {
+        let w = WorldFile::parse(
+            "name = \"m\"\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0]\ntime_limit_s = 10.0\n\
+             [[wall]]\nfrom = [-3.0, -3.0]\nto = [3.0, -3.0]\n[[wall]]\nfrom = [-3.0, 3.0]\nto = [3.0, 3.0]\n",
+            "m",
+        )
+        .expect("parses");
+        assert_eq!(check(&w), Err(Malformed::TooShort));
+        let mut far = w.clone();
+        far.goal = [9.0, 0.0];
+        assert!(matches!(
+            check(&far),
+            Err(Malformed::Outside { what: "goal", .. })
+        ));
     }
 }

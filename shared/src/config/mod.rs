@@ -33,7 +33,7 @@ use iceoryx2::{iceoryx2_config, project_iceoryx2_defaults};
 pub use latency::LatencyConfig;
 pub use log::LogConfig;
 pub use map::MapConfig;
-pub use robot::{Body, Disc, RobotProfile};
+pub use robot::{Body, Disc, RobotProfile, Side};
 
 /// A duration key in seconds as nanoseconds (truncated; `as` takes a negative or NaN value to 0,
 /// which validation refuses anyway).

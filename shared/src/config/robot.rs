@@ -197,28 +197,73 @@ impl Body {
         }
     }
 
-    /// Points along the body's outline no farther apart than `spacing_m` (body frame), for
-    /// contact tests against shapes that give a distance to a point; a round body gives none
-    /// (its centre and radius decide).
-    pub fn outline(&self, spacing_m: f64) -> Vec<[f64; 2]> {
+    /// The sides of a rectangular body, counter-clockwise from the front left corner (body
+    /// frame): each side's first corner, its unit direction and its length; none for a round
+    /// body.
+    pub fn sides(&self) -> Vec<Side> {
         match *self {
             Body::Round(_) => Vec::new(),
             Body::Rectangle { length_m, width_m } => {
                 let (hl, hw) = (0.5 * length_m, 0.5 * width_m);
-                let corners = [[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]];
-                let mut out = Vec::new();
-                for k in 0..4 {
-                    let (a, b) = (corners[k], corners[(k + 1) % 4]);
-                    let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-                    let n = (len / spacing_m.max(1e-3)).ceil().max(1.0) as usize;
-                    for i in 0..n {
-                        let t = i as f64 / n as f64;
-                        out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
-                    }
-                }
-                out
+                vec![
+                    Side {
+                        from: [hl, hw],
+                        dir: [-1.0, 0.0],
+                        len_m: length_m,
+                    },
+                    Side {
+                        from: [-hl, hw],
+                        dir: [0.0, -1.0],
+                        len_m: width_m,
+                    },
+                    Side {
+                        from: [-hl, -hw],
+                        dir: [1.0, 0.0],
+                        len_m: length_m,
+                    },
+                    Side {
+                        from: [hl, -hw],
+                        dir: [0.0, 1.0],
+                        len_m: width_m,
+                    },
+                ]
             }
         }
+    }
+
+    /// Points along the body's outline no farther apart than `spacing_m` (body frame), for
+    /// contact tests against shapes that give a distance to a point; a round body gives none
+    /// (its centre and radius decide).
+    pub fn outline(&self, spacing_m: f64) -> Vec<[f64; 2]> {
+        let mut out = Vec::new();
+        for s in self.sides() {
+            let n = (s.len_m / spacing_m.max(1e-3)).ceil().max(1.0) as usize;
+            for i in 0..n {
+                out.push(s.at(s.len_m * i as f64 / n as f64));
+            }
+        }
+        out
+    }
+}
+
+/// One side of a rectangular body ([`Body::sides`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Side {
+    /// Its first corner (body frame), m.
+    pub from: [f64; 2],
+    /// Unit direction along it.
+    pub dir: [f64; 2],
+    /// Its length, m.
+    pub len_m: f64,
+}
+
+impl Side {
+    /// The point `t` metres along the side from its first corner.
+    pub fn at(&self, t: f64) -> [f64; 2] {
+        [
+            self.from[0] + self.dir[0] * t,
+            self.from[1] + self.dir[1] * t,
+        ]
     }
 }
 
