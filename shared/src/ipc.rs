@@ -216,12 +216,23 @@ pub fn is_global_mgmt(file: &str, prefix: &str, suffix: &str) -> bool {
 /// creates the segment with mode 0666 on purpose (any user may join a domain), but every other
 /// segment of the stack is its owner's alone (0600), so no one else could use the domain anyway.
 /// Group access stays. A segment another user owns is left alone.
+///
+/// The segment outlives every process (iceoryx2 never removes it), so one that root created —
+/// `sudo mimnav goal …` before the installed stack started — would lock the stack's own user out
+/// for good once narrowed. So root first hands a segment it owns to the owner of the domain's
+/// root-path folder (`/run/mimnav/iceoryx2`, the `mimnav` user's), where that is not root.
 pub fn restrict_global_mgmt(config: &iceoryx2::config::Config) -> std::io::Result<usize> {
     use std::os::unix::fs::{MetadataExt, PermissionsExt};
     let prefix = config.global.prefix.to_string();
     let suffix = config.global.node.global_mgmt_suffix.to_string();
     // SAFETY: geteuid(2) has no preconditions and cannot fail
     let me = unsafe { libc::geteuid() };
+    // root: the domain's owner, to hand the segment to
+    let owner = (me == 0)
+        .then(|| std::fs::metadata(config.global.root_path().to_string()).ok())
+        .flatten()
+        .map(|m| (m.uid(), m.gid()))
+        .filter(|&(uid, _)| uid != 0);
     let mut changed = 0;
     for entry in std::fs::read_dir(SHM_DIR)? {
         let entry = entry?;
@@ -242,6 +253,9 @@ pub fn restrict_global_mgmt(config: &iceoryx2::config::Config) -> std::io::Resul
         let mode = meta.mode() & 0o7777;
         if meta.uid() != me || mode & 0o007 == 0 {
             continue;
+        }
+        if let Some((uid, gid)) = owner {
+            std::os::unix::fs::chown(&path, Some(uid), Some(gid))?;
         }
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(mode & !0o007))?;
         tracing::debug!(
@@ -977,6 +991,38 @@ mod tests {
             .map(|(p, m)| format!("{} {m:o}", p.display()))
             .collect();
         assert!(open.is_empty(), "world-writable: {open:?}");
+    }
+
+    /// Root's segment in a domain another user owns goes to that user: the stack's user is not
+    /// locked out by a segment root created first (as root only; others print SKIP).
+    #[test]
+    fn shared_memory_world_writable_global_mgmt_of_root_goes_to_the_domain_owner() {
+        use std::os::unix::fs::MetadataExt;
+        // SAFETY: geteuid(2) has no preconditions and cannot fail
+        if unsafe { libc::geteuid() } != 0 {
+            println!("SKIP: needs root");
+            return;
+        }
+        let loc = PrivateDomain::new("ipcown");
+        std::fs::create_dir_all(&loc.root).expect("root path");
+        // nobody:nogroup owns the domain's folder
+        std::os::unix::fs::chown(&loc.root, Some(65534), Some(65534)).expect("chown");
+        let config = loc.config();
+        let _node = node(&config, "own-test").expect("node");
+        let suffix = config.iceoryx2.global.node.global_mgmt_suffix.to_string();
+        let mgmt: Vec<_> = std::fs::read_dir(SHM_DIR)
+            .expect("/dev/shm")
+            .flatten()
+            .filter(|e| {
+                e.file_name()
+                    .to_str()
+                    .is_some_and(|n| is_global_mgmt(n, &loc.prefix, &suffix))
+            })
+            .map(|e| e.metadata().expect("stat"))
+            .collect();
+        assert_eq!(mgmt.len(), 1);
+        assert_eq!((mgmt[0].uid(), mgmt[0].gid()), (65534, 65534));
+        assert_eq!(mgmt[0].mode() & 0o777, 0o660);
     }
 
     #[test]
