@@ -4,8 +4,10 @@ use std::path::PathBuf;
 
 use crate::config::{ConfigError, Load};
 
-/// `--config FILE` and `--set KEY=VALUE`, for `#[command(flatten)]` into a service's arguments.
+/// `--config FILE` and `--set KEY=VALUE`, for `#[command(flatten)]` into a service's arguments;
+/// they also give every service the closing paragraph of its `--help`.
 #[derive(Debug, Clone, clap::Args)]
+#[command(after_help = SERVICE_AFTER_HELP)]
 pub struct ServiceArgs {
     /// The stack's config file [default: /etc/mimnav/mimnav.toml if it exists, else built-in
     /// defaults].
@@ -15,6 +17,16 @@ pub struct ServiceArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
 }
+
+/// What every service's `--help` ends with: stopping and shared memory (issue 23, item 10).
+pub const SERVICE_AFTER_HELP: &str = "\
+SIGTERM or SIGINT ends the service cleanly (exit status 0), removing its shared memory.
+
+Shared memory: on start, the service removes what dead nodes of its iceoryx2 domain (processes \
+killed before they could clean up) left in /dev/shm and under the root path, and logs it at INFO; \
+a service restarted after a SIGKILL thus frees what it left. Nothing it creates is writable by \
+other users: iceoryx2's global management segment, which iceoryx2 creates with mode 0666 whatever \
+the umask, is set to 0660 by the process that created it.";
 
 impl ServiceArgs {
     /// The config these options name, with `extra` overrides applied after the `--set` ones.
