@@ -105,7 +105,11 @@ fn run(config: &Config) -> Result<()> {
         .unwrap_or_default();
     svc.run(&mut health, &format!("listening on {addr}"), |turn, h| {
         loop {
-            match source.recv(&mut buf) {
+            // a flood can keep this loop draining for longer than the watchdog allows
+            h.sd.alive(Instant::now());
+            let driver = &mut wired.0;
+            let foreign = &mut |from| driver.on_foreign(from, turn.now, &mut h.faults);
+            match source.recv(&mut buf, foreign) {
                 Ok(Some(r)) => {
                     last_datagram = turn.now;
                     let from = || format!("datagram from {}", r.from);
@@ -128,11 +132,7 @@ fn run(config: &Config) -> Result<()> {
             "no VLP-16 datagram",
         );
     })?;
-    let rejected = source.rejected();
-    tracing::info!(
-        rejected,
-        "datagrams from other senders than velodyne.allowed_source dropped"
-    );
+    // the foreign senders' count and the last one's address are in the summary
     wired.0.log_summary("stopped", &health.faults);
     Ok(())
 }
