@@ -10,6 +10,8 @@
 mod cli;
 /// The foliage classifier behind the driver replaying a capture.
 mod foliage;
+/// Issue 23's defects under bad input and faults, a regression test named after each.
+mod hardening;
 /// The lock-step runner against the services as processes: the same commands.
 mod lockstep;
 /// The mapper on the real capture and behind the simulator and the driver.
