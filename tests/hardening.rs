@@ -190,23 +190,63 @@ fn closed_pipe() -> Stdio {
     unsafe { <Stdio as std::os::fd::FromRawFd>::from_raw_fd(fds[1]) }
 }
 
-/// Issue 23 item 4: `mimnav replay F | head -2` exited 101 (`failed printing to stdout`). With
-/// stdout closed from the start, the command ends quietly with status 0, and stops its driver.
+/// Issue 23 item 4: `mimnav replay F | head -2` exited 101 (`failed printing to stdout`). As
+/// `head -2` does: read two lines, close the pipe. The replay (real time, so revolutions are still
+/// coming) ends quietly with status 0.
 #[test]
 fn broken_pipe_replay_into_closed_stdout_exits_0() {
-    let out = Command::new(bin("mimnav"))
+    use std::io::BufRead;
+    let mut child = Command::new(bin("mimnav"))
         .arg("--config")
         .arg(shipped_config())
-        .args(["replay", "--fast"])
+        .arg("replay")
         .arg(bundled_capture())
         .stdin(Stdio::null())
-        .stdout(closed_pipe())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
-        .output()
+        .spawn()
         .expect("run mimnav replay");
-    let err = String::from_utf8_lossy(&out.stderr);
+    let mut stdout = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+    let mut head = String::new();
+    for _ in 0..2 {
+        stdout.read_line(&mut head).expect("a line");
+    }
+    drop(stdout);
+    assert!(head.contains("rev     0"), "{head}");
+    let mut p = Proc(child);
+    let status = p.wait(Duration::from_secs(20)).expect("ends");
+    let mut err = String::new();
+    if let Some(mut e) = p.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut err);
+    }
     assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert_eq!(status.code(), Some(0), "{err}");
+}
+
+/// Issue 23 item 4, the other commands: those that only print (here `check-config` and `worlds
+/// families`, and `mimnav replay` before its first line) end with status 0 too when stdout is
+/// closed from the start.
+#[test]
+fn broken_pipe_printing_commands_exit_0() {
+    let capture = bundled_capture().display().to_string();
+    for args in [
+        &["check-config"][..],
+        &["worlds", "families"],
+        &["replay", "--fast", &capture],
+    ] {
+        let out = Command::new(bin("mimnav"))
+            .arg("--config")
+            .arg(shipped_config())
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(closed_pipe())
+            .stderr(Stdio::piped())
+            .output()
+            .expect("run mimnav");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+    }
 }
 
 /// Issue 23 item 4, the services' side: a service whose stderr closes exited 101 the same way
