@@ -57,7 +57,9 @@ use wired::Wired;
 fn main() -> ExitCode {
     service::main("mimnav-velodyne", |args: Args, config: Config| {
         if args.check_config {
-            println!("{:#?}", config.velodyne);
+            // a closed stdout is no failure of the check (issue 23 item 4)
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stdout().lock(), "{:#?}", config.velodyne);
             return Ok(ExitCode::SUCCESS);
         }
         run(&config).map(|()| ExitCode::SUCCESS)
