@@ -56,6 +56,13 @@ pub fn finish<E: std::fmt::Display>(
     }
 }
 
+/// Writes a line to stdout, ignoring a failure: for a service's report of a run that is over,
+/// whose exit status must not depend on whether anyone still reads it.
+pub fn stdout_line(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
 /// Writes a line to stderr, ignoring a failure: a service whose stderr is closed exits with its
 /// own status, not with eprintln!'s panic (101).
 pub fn stderr_line(line: std::fmt::Arguments<'_>) {

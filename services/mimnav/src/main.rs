@@ -98,7 +98,7 @@ fn main() -> ExitCode {
     let config = match Config::resolve(config_path.as_deref(), &cli.set) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("mimnav: {e}");
+            mimnav_shared::cli::stderr_line(format_args!("mimnav: {e}"));
             return ExitCode::from(2);
         }
     };

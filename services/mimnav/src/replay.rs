@@ -271,7 +271,7 @@ pub fn run(
         tally.lost
     )?;
     if interrupted {
-        eprintln!("mimnav: replay interrupted");
+        mimnav_shared::cli::stderr_line(format_args!("mimnav: replay interrupted"));
         return Ok(ExitCode::from(130));
     }
     if !tally.end_of_stream {
