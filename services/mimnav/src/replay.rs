@@ -132,10 +132,10 @@ pub fn run(
     // subscribe before the driver starts, so the first revolution is not missed; in our own
     // domain we create the topic, with room for REPLAY_BUFFER revolutions: a short capture
     // replayed --fast is not overwritten while this process waits for the CPU (issue 23 item 8).
-    // A running stack's topic (--shared) keeps its own buffer.
-    let points = match ipc::points_subscriber_with_buffer(&node, ipc::REPLAY_BUFFER) {
-        Ok(p) => p,
-        Err(_) => ipc::points_subscriber(&node)?,
+    // In the stack's domain (--shared) the topic keeps the stack's buffer, losses are counted.
+    let points = match domain {
+        Some(_) => ipc::points_subscriber_with_buffer(&node, ipc::REPLAY_BUFFER)?,
+        None => ipc::points_subscriber(&node)?,
     };
 
     let mut child_args: Vec<String> = Vec::new();
