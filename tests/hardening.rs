@@ -357,6 +357,9 @@ fn position_port_garbage_is_counted_and_rate_limited() {
     let real = encode_position_packet(0, 2, &format!("${body}*{sum:02X}"));
     tx.send_to(&real, to).expect("send");
     std::thread::sleep(Duration::from_millis(500));
+    // what the kernel dropped because the socket's buffer was full (a loaded machine) never
+    // reached the driver: not this test's business
+    let dropped = udp_drops(d.position).unwrap_or(0);
     let lines = d.stop();
     let _ = manager.finish();
     let about_position: Vec<&String> = (lines.iter())
@@ -375,12 +378,29 @@ fn position_port_garbage_is_counted_and_rate_limited() {
         .filter(|w| w.starts_with("position_bad_") || w.starts_with("position_wrong_"))
         .filter_map(|w| w.split_once('=')?.1.parse::<u64>().ok())
         .sum();
-    assert_eq!(counted, GARBAGE, "every bad one counted: {summary}");
+    println!("{counted} counted, {dropped} dropped by the kernel, of {GARBAGE}");
+    assert_eq!(
+        counted + dropped,
+        GARBAGE,
+        "every bad one the kernel delivered counted ({dropped} dropped by the kernel): {summary}"
+    );
+    assert!(counted >= GARBAGE / 2, "{counted} of {GARBAGE} delivered");
     assert!(summary.contains("position_packets=1"), "{summary}");
     assert!(
         (lines.iter()).any(|l| l.contains("position packet: PPS Locked")),
         "the real one logged: {lines:#?}"
     );
+}
+
+/// Datagrams the kernel dropped at the loopback UDP socket bound to `port` (a full receive
+/// buffer): the last column of its line in /proc/net/udp.
+fn udp_drops(port: u16) -> Option<u64> {
+    let table = std::fs::read_to_string("/proc/net/udp").ok()?;
+    let local = format!("0100007F:{port:04X}");
+    table.lines().find_map(|l| {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        (f.get(1) == Some(&local.as_str())).then(|| f.last()?.parse().ok())?
+    })
 }
 
 /// Issue 23 item 6: datagrams from a sender other than `allowed_source` were reported only at
