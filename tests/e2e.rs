@@ -10,6 +10,8 @@
 mod cli;
 /// The foliage classifier behind the driver replaying a capture.
 mod foliage;
+/// Issue 23's defects under bad input and faults, a regression test named after each.
+mod hardening;
 /// Signals and leftovers (issue 23, items 9 and 10): the demo's children, shared memory after a
 /// SIGKILL, file modes.
 mod lifecycle;

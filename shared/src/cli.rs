@@ -46,7 +46,7 @@ impl ServiceArgs {
         extra: &[String],
     ) -> Result<C, std::process::ExitCode> {
         self.load(extra).map_err(|e| {
-            eprintln!("{service}: {e}");
+            stderr_line(format_args!("{service}: {e}"));
             std::process::ExitCode::from(2)
         })
     }
@@ -62,8 +62,22 @@ pub fn finish<E: std::fmt::Display>(
         Ok(code) => code,
         Err(e) => {
             tracing::error!("{e:#}");
-            eprintln!("{service}: {e:#}");
+            stderr_line(format_args!("{service}: {e:#}"));
             std::process::ExitCode::from(1)
         }
     }
+}
+
+/// Writes a line to stdout, ignoring a failure: for a service's report of a run that is over,
+/// whose exit status must not depend on whether anyone still reads it.
+pub fn stdout_line(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
+/// Writes a line to stderr, ignoring a failure: a service whose stderr is closed exits with its
+/// own status, not with eprintln!'s panic (101).
+pub fn stderr_line(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
 }

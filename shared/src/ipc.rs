@@ -42,6 +42,10 @@ pub const MAX_SUBSCRIBERS: usize = 6;
 pub const MAX_NODES: usize = 12;
 /// Subscriber buffer of the large slice topics (revolutions, maps).
 pub const SLICE_BUFFER: usize = 2;
+/// Subscriber buffer of a replay's own subscriber of `lidar/points` in the replay's private domain
+/// (`mimnav replay`): the revolutions of a short capture replayed as fast as possible all wait
+/// in it when the reader falls behind, instead of being overwritten.
+pub const REPLAY_BUFFER: usize = 16;
 /// Subscriber buffer of fixed-size topics (raw packets, commands).
 pub const SMALL_BUFFER: usize = 64;
 
@@ -290,6 +294,7 @@ fn event_service(
 fn slice_service<T, H>(
     node: &Node<Svc>,
     topic: &'static str,
+    max_buffer: usize,
 ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, IpcError>
 where
     T: Debug + ZeroCopySend + Copy + 'static,
@@ -300,7 +305,7 @@ where
         .user_header::<H>()
         .enable_safe_overflow(true)
         .history_size(0)
-        .subscriber_max_buffer_size(SLICE_BUFFER)
+        .subscriber_max_buffer_size(max_buffer)
         .subscriber_max_borrowed_samples(1)
         .max_publishers(MAX_PUBLISHERS)
         .max_subscribers(MAX_SUBSCRIBERS)
@@ -327,7 +332,7 @@ where
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
     fn open(node: &Node<Svc>, topic: &'static str, capacity: usize) -> Result<Self, IpcError> {
-        let service = slice_service::<T, H>(node, topic)?;
+        let service = slice_service::<T, H>(node, topic, SLICE_BUFFER)?;
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(capacity.max(1))
@@ -497,11 +502,11 @@ where
     T: Debug + ZeroCopySend + Copy + 'static,
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
-    fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
-        let service = slice_service::<T, H>(node, topic)?;
+    fn open(node: &Node<Svc>, topic: &'static str, buffer: usize) -> Result<Self, IpcError> {
+        let service = slice_service::<T, H>(node, topic, buffer)?;
         let subscriber = service
             .subscriber_builder()
-            .buffer_size(SLICE_BUFFER)
+            .buffer_size(buffer)
             .create()
             .map_err(|e| topic_err(topic, e))?;
         let listener = listener(node, topic)?;
@@ -537,7 +542,18 @@ pub fn points_publisher(node: &Node<Svc>, max_points: usize) -> Result<PointsPub
 
 /// Opens `lidar/points` for receiving.
 pub fn points_subscriber(node: &Node<Svc>) -> Result<PointsSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::LIDAR_POINTS)
+    SliceSubscriber::open(node, topics::LIDAR_POINTS, SLICE_BUFFER)
+}
+
+/// Opens `lidar/points` for receiving with a buffer of `buffer` revolutions. Only the creator of
+/// the topic can give it room for more than [`SLICE_BUFFER`] (a later opener that asks for more
+/// fails): `mimnav replay` subscribes with [`REPLAY_BUFFER`] before it starts the driver in its
+/// private domain.
+pub fn points_subscriber_with_buffer(
+    node: &Node<Svc>,
+    buffer: usize,
+) -> Result<PointsSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::LIDAR_POINTS, buffer.max(SLICE_BUFFER))
 }
 
 /// Opens `lidar/scan2d` for publishing scans of up to `max_returns` returns.
@@ -547,7 +563,7 @@ pub fn scan_publisher(node: &Node<Svc>, max_returns: usize) -> Result<ScanPublis
 
 /// Opens `lidar/scan2d` for receiving.
 pub fn scan_subscriber(node: &Node<Svc>) -> Result<ScanSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::LIDAR_SCAN2D)
+    SliceSubscriber::open(node, topics::LIDAR_SCAN2D, SLICE_BUFFER)
 }
 
 /// Opens (or creates) the publish-subscribe service of a fixed-size topic with the project's
@@ -702,7 +718,7 @@ pub fn truth_publisher(node: &Node<Svc>, cells: usize) -> Result<TruthPublisher,
 
 /// Opens `sim/truth` for receiving.
 pub fn truth_subscriber(node: &Node<Svc>) -> Result<TruthSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::SIM_TRUTH)
+    SliceSubscriber::open(node, topics::SIM_TRUTH, SLICE_BUFFER)
 }
 
 /// Publisher of `map/layers`.
@@ -721,7 +737,7 @@ pub fn layers_publisher(node: &Node<Svc>, values: usize) -> Result<LayersPublish
 
 /// Opens `map/layers` for receiving.
 pub fn layers_subscriber(node: &Node<Svc>) -> Result<LayersSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::MAP_LAYERS)
+    SliceSubscriber::open(node, topics::MAP_LAYERS, SLICE_BUFFER)
 }
 
 /// Opens `map/plan` for publishing grids of up to `cells` cells.
@@ -731,7 +747,7 @@ pub fn plan_publisher(node: &Node<Svc>, cells: usize) -> Result<PlanPublisher, I
 
 /// Opens `map/plan` for receiving.
 pub fn plan_subscriber(node: &Node<Svc>) -> Result<PlanSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::MAP_PLAN)
+    SliceSubscriber::open(node, topics::MAP_PLAN, SLICE_BUFFER)
 }
 
 /// Publisher of `foliage/alarm`.
@@ -749,7 +765,7 @@ pub fn foliage_publisher(
 
 /// Opens `foliage/alarm` for receiving.
 pub fn foliage_subscriber(node: &Node<Svc>) -> Result<FoliageSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::FOLIAGE_ALARM)
+    SliceSubscriber::open(node, topics::FOLIAGE_ALARM, SLICE_BUFFER)
 }
 
 /// Opens `lidar/packets` for publishing raw datagrams.
