@@ -158,6 +158,12 @@ impl Config {
             format!("{shown} with --set")
         };
         apply_overrides(&mut table, overrides)?;
+        // TOML reads nan and inf: refused wherever they are, before any section sees them
+        let mut finite = Checks::default();
+        finite.finite_table("", &table);
+        finite
+            .finish()
+            .map_err(|e| ConfigError::invalid(&source, e))?;
         let file: FileConfig =
             section(toml::Value::Table(table), "config", &source).map_err(|mut e| {
                 e.message = e.message.replacen("[config]: ", "", 1);

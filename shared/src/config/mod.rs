@@ -274,6 +274,14 @@ impl Common {
             })?;
             let parsed: RobotProfile =
                 toml::from_str(&text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
+            // TOML reads nan and inf: named in the profile file, where they were written
+            let mut finite = Checks::default();
+            if let Ok(t) = toml::from_str::<toml::Table>(&text) {
+                finite.finite_table("robot", &t);
+            }
+            finite
+                .finish()
+                .map_err(|e| ConfigError::invalid(&shown, e))?;
             base = toml::Table::try_from(parsed).map_err(|e| err(&shown, e.to_string()))?;
         }
         for (k, v) in section_table {
