@@ -224,13 +224,15 @@ fn issue23_3_non_finite_values_accepted_in_config_are_refused() {
     assert!(e.source_name.ends_with("nanbot.toml"), "{e}");
     assert!(e.to_string().contains("robot.sensor_height_m = NaN"), "{e}");
     // the library's own validate() refuses a non-finite layer bound handed to it directly
-    let mut mapper = mimnav_mapper::config::MapperConfig::default();
-    mapper.layers = vec![mimnav_mapper::config::LayerConfig {
-        name: "below".into(),
-        unit: mimnav_mapper::config::LayerUnit::M,
-        low: f64::NEG_INFINITY,
-        high: 0.0,
-    }];
+    let mapper = mimnav_mapper::config::MapperConfig {
+        layers: vec![mimnav_mapper::config::LayerConfig {
+            name: "below".into(),
+            unit: mimnav_mapper::config::LayerUnit::M,
+            low: f64::NEG_INFINITY,
+            high: 0.0,
+        }],
+        ..Default::default()
+    };
     let e = mapper.validate().expect_err("-inf low");
     assert!(e.get("mapper.layer[0].low").is_some(), "{e}");
 }
