@@ -236,3 +236,12 @@ fn issue23_3_non_finite_values_accepted_in_config_are_refused() {
     let e = mapper.validate().expect_err("-inf low");
     assert!(e.get("mapper.layer[0].low").is_some(), "{e}");
 }
+
+/// Issue 23 item 2: a config file is read whole, so its size is bounded before reading
+/// (`--config /dev/zero` never ended).
+#[test]
+fn issue23_2_an_oversized_config_file_is_refused_before_reading_it_whole() {
+    let e = Config::load(Path::new("/dev/zero"), &[]).expect_err("endless");
+    assert_eq!(e.source_name, "/dev/zero");
+    assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
+}

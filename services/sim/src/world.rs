@@ -34,6 +34,11 @@
 //! | `[[rock]]` | `center`, `radius` 0.25, `height` 0.3, `reflectivity` 35 | solid (may sit inside grass) |
 //!
 //! `survey = [[x, y], …]` (optional) is the route the map scorer drives; it defaults to the goal.
+//!
+//! Limits, checked on loading before anything is built (docs/configuration.md, "Limits of a
+//! world"): every number finite; positions within [`WORLD_EXTENT_M`]; angles within
+//! [`MAX_ANGLE_DEG`]; the grass patches' blade fields within [`crate::blades::MAX_FIELD_CELLS`]
+//! and [`crate::blades::MAX_FIELD_BLADES`] in all; the file at most [`MAX_WORLD_FILE_BYTES`].
 //! A `[generated]` table (`family`, `seed`, `index`) records where a world drawn by
 //! [`crate::generate`] came from.
 
@@ -458,6 +463,8 @@ pub struct Scene {
 /// within this many metres of the origin along x and along y: finite, and small enough that what
 /// is sized by the world's extent (the reachability grid of `mimnav worlds`) stays bounded.
 pub const WORLD_EXTENT_M: f64 = 1000.0;
+/// The longest world file read, bytes (the bundled ones are under 3 kB).
+pub const MAX_WORLD_FILE_BYTES: u64 = 4 * 1024 * 1024;
 /// Angles in a world file (the start's heading, `yaw_deg`) lie within ± this, degrees.
 pub const MAX_ANGLE_DEG: f64 = 3600.0;
 
@@ -538,12 +545,29 @@ impl Scene {
 impl WorldFile {
     /// Reads and checks a world file.
     pub fn load(path: &Path) -> Result<WorldFile, WorldError> {
+        use std::io::Read;
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| WorldError {
+        let cannot = |e: std::io::Error| WorldError {
             path: shown.clone(),
             message: format!("cannot read: {e}"),
             invalid: None,
-        })?;
+        };
+        // bounded before reading: a world file is a few kB; the largest accepted is read whole
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .map_err(cannot)?
+            .take(MAX_WORLD_FILE_BYTES + 1)
+            .read_to_string(&mut text)
+            .map_err(cannot)?;
+        if text.len() as u64 > MAX_WORLD_FILE_BYTES {
+            return Err(WorldError {
+                path: shown,
+                message: format!(
+                    "the file is longer than {MAX_WORLD_FILE_BYTES} bytes, the most a world file may be"
+                ),
+                invalid: None,
+            });
+        }
         Self::parse(&text, &shown)
     }
 

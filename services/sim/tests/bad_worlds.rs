@@ -2,7 +2,7 @@
 //! after the defect it keeps fixed.
 
 use mimnav_sim::blades::{MAX_FIELD_BLADES, MAX_FIELD_CELLS, field_size};
-use mimnav_sim::world::{WORLD_EXTENT_M, WorldFile};
+use mimnav_sim::world::{MAX_WORLD_FILE_BYTES, WORLD_EXTENT_M, WorldFile};
 use proptest::prelude::*;
 
 const HEAD: &str =
@@ -188,4 +188,23 @@ fn issue23_3_no_world_with_a_non_finite_number_loads() {
         let r = WorldFile::parse(&text, "w");
         prop_assert!(r.is_err(), "loaded: {}", text);
     });
+}
+
+/// Issue 23 item 2: a world file is read whole, so its size is bounded before reading.
+#[test]
+fn issue23_2_an_oversized_world_file_is_refused_before_reading_it_whole() {
+    let path = std::env::temp_dir().join(format!("mimnav-big-world-{}.toml", std::process::id()));
+    let mut text = String::from(HEAD);
+    while (text.len() as u64) <= MAX_WORLD_FILE_BYTES {
+        text.push_str("# padding padding padding padding padding padding padding padding\n");
+    }
+    std::fs::write(&path, &text).expect("write");
+    let e = WorldFile::load(&path).expect_err("too long");
+    std::fs::remove_file(&path).ok();
+    assert!(
+        e.message
+            .contains(&format!("longer than {MAX_WORLD_FILE_BYTES} bytes")),
+        "{e}"
+    );
+    assert!(e.path.contains("mimnav-big-world"), "{e}");
 }
