@@ -43,6 +43,9 @@ pub struct Reach {
     /// The grid spacing the fill ran at, m: the one asked for, or coarser when the world is too
     /// large for [`MAX_POSES`] at that spacing.
     pub cell_m: f64,
+    /// The fill ran at a coarser spacing than asked, the world being too large for
+    /// [`MAX_POSES`] at that one.
+    pub coarsened: bool,
 }
 
 /// Most poses (grid cells × headings) the fill keeps a bit for: 2³⁰, 128 MB (and, with several
@@ -135,6 +138,7 @@ pub fn reach_by(
             start_blocked: true,
             tested: 1,
             cell_m,
+            coarsened: false,
         };
     }
     // the extent: objects, start and goal, and room to go round them all
@@ -149,7 +153,8 @@ pub fn reach_by(
     for o in &scene.objects {
         grow(o.bound.0[0], o.bound.0[1], o.bound.1);
     }
-    let mut cell = cell_m.max(1e-3);
+    let asked = cell_m.max(1e-3);
+    let mut cell = asked;
     let mut margin = 2.0 * footprint.outer_m + 4.0 * cell + 0.1;
     // bounded: a world too large for the grid at this spacing is filled at a coarser one
     let poses = |cell: f64, margin: f64| {
@@ -170,6 +175,7 @@ pub fn reach_by(
             start_blocked: false,
             tested: 0,
             cell_m: cell,
+            coarsened: true,
         };
     }
     // grid indices relative to the start's cell, i = (x − start) / cell
@@ -224,6 +230,7 @@ pub fn reach_by(
                 start_blocked: false,
                 tested,
                 cell_m: cell,
+                coarsened: cell > asked,
             };
         }
         let turns = if k_n > 1 {
@@ -257,6 +264,7 @@ pub fn reach_by(
         start_blocked: false,
         tested,
         cell_m: cell,
+        coarsened: cell > asked,
     }
 }
 

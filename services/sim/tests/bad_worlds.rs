@@ -208,3 +208,27 @@ fn issue23_2_an_oversized_world_file_is_refused_before_reading_it_whole() {
     );
     assert!(e.path.contains("mimnav-big-world"), "{e}");
 }
+
+/// Issue 23 item 2: `mimnav worlds check` fills a grid over the world's extent; a world 2 km
+/// across (the most its positions allow) is filled at a coarser cell, within the bound, rather
+/// than allocating gigabytes (99 000² cells at 2 cm).
+#[test]
+fn issue23_2_the_reachability_grid_of_a_world_at_its_extent_stays_bounded() {
+    use mimnav_sim::reach::{CELL_M, MAX_POSES, reach};
+    let text = "name = \"far\"\nstart = [-990.0, 0.0, 0.0]\ngoal = [-988.0, 0.0]\n\
+                time_limit_s = 10.0\n[[trunk]]\ncenter = [990.0, 990.0]\n";
+    let scene = WorldFile::parse(text, "far")
+        .expect("within the extent")
+        .compile();
+    let r = reach(&scene, 0.2, 0.3, CELL_M);
+    assert!(r.reachable, "{r:?}");
+    assert!(r.coarsened && r.cell_m > CELL_M, "coarsened: {r:?}");
+    // the extent: x from −990 to 990.15, y from 0 to 990.15, and the fill's margin
+    let margin = 2.0 * (0.4 + 4.0 * r.cell_m + 0.1);
+    let cells = ((1980.15 + margin) / r.cell_m + 2.0) * ((990.15 + margin) / r.cell_m + 2.0);
+    assert!(cells <= MAX_POSES, "{cells} cells: {r:?}");
+    assert!(
+        cells > MAX_POSES / 2.0,
+        "not coarser than needed: {cells} cells: {r:?}"
+    );
+}
