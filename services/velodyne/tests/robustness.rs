@@ -385,3 +385,83 @@ fn issue23_7_impossible_record_lengths_are_refused_before_reading() {
         other => panic!("{:?}", other.map(|d| d.map(|d| d.offset))),
     }
 }
+
+/// A pcapng capture of `n` VLP-16-sized datagrams on one Ethernet interface.
+fn pcapng_capture(n: usize) -> Vec<u8> {
+    use pcap_file::pcapng::PcapNgWriter;
+    use pcap_file::pcapng::blocks::enhanced_packet::EnhancedPacketBlock;
+    use pcap_file::pcapng::blocks::interface_description::InterfaceDescriptionBlock;
+    let mut w = PcapNgWriter::new(Vec::new()).expect("section");
+    w.write_pcapng_block(InterfaceDescriptionBlock::new(
+        pcap_file::DataLink::ETHERNET,
+        0xFFFF,
+    ))
+    .expect("interface");
+    let mut frame = vec![0xFF; 6];
+    frame.extend_from_slice(&[0x60, 0x76, 0x88, 0, 0, 1, 0x08, 0x00]);
+    frame.extend_from_slice(&[
+        0x45, 0, 0x04, 0xD2, 0, 0, 0x40, 0, 64, 17, 0, 0, 192, 168, 1, 201, 255, 255, 255, 255,
+    ]);
+    frame.extend_from_slice(&[0x09, 0x40, 0x09, 0x40, 0x04, 0xBE, 0, 0]);
+    frame.extend_from_slice(&[7u8; 1206]);
+    for i in 0..n {
+        w.write_pcapng_block(EnhancedPacketBlock {
+            interface_id: 0,
+            timestamp: std::time::Duration::from_micros(1_700_000_000_000_000 + i as u64),
+            original_len: frame.len() as u32,
+            data: std::borrow::Cow::Borrowed(&frame),
+            options: vec![],
+        })
+        .expect("packet");
+    }
+    w.into_inner()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, .. ProptestConfig::default() })]
+
+    /// Issue 23 item 7: whatever 32-bit word of a pcapng capture's first blocks is overwritten
+    /// with whatever value (the length fields included), the reader never panics, never reads
+    /// past the file, and an error names an offset inside it.
+    #[test]
+    fn issue23_7_damaged_pcapng_words_are_refused_with_an_offset_in_the_file(
+        word in 0usize..700,
+        value in prop_oneof![
+            any::<u32>(),
+            Just(0xFFFF_FFF0u32),
+            Just(0x7FFF_FFF0),
+            Just(0xFFFF_FFFF),
+            Just(0),
+            Just(12),
+        ],
+    ) {
+        let mut bytes = pcapng_capture(2);
+        if word * 4 + 4 <= bytes.len() {
+            bytes[word * 4..word * 4 + 4].copy_from_slice(&value.to_le_bytes());
+        }
+        let path = temp_path(&format!("damaged-{word}-{value:x}.pcapng"));
+        let _cleanup = Cleanup(path.clone());
+        std::fs::write(&path, &bytes).expect("write");
+        let Ok(mut r) = CaptureReader::open(&path) else {
+            return Ok(()); // the section header itself was damaged: refused on opening
+        };
+        for _ in 0..100 {
+            match r.next() {
+                Ok(Some(d)) => prop_assert!(d.offset < bytes.len() as u64),
+                Ok(None) => break,
+                Err(CaptureError::Truncated { offset, missing, .. }) => {
+                    prop_assert_eq!(offset as usize + missing, bytes.len());
+                    break;
+                }
+                Err(CaptureError::Corrupt { offset, .. })
+                | Err(CaptureError::ImpossibleLength { offset, .. }) => {
+                    prop_assert!(offset < bytes.len() as u64);
+                    break;
+                }
+                Err(CaptureError::UnsupportedLinkType { .. }) => break,
+                Err(e) => prop_assert!(false, "unexpected {e}"),
+            }
+        }
+        prop_assert!(r.bytes_read() <= bytes.len() as u64);
+    }
+}
