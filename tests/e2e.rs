@@ -12,6 +12,11 @@ mod bad_input;
 mod cli;
 /// The foliage classifier behind the driver replaying a capture.
 mod foliage;
+/// Issue 23's defects under bad input and faults, a regression test named after each.
+mod hardening;
+/// Signals and leftovers (issue 23, items 9 and 10): the demo's children, shared memory after a
+/// SIGKILL, file modes.
+mod lifecycle;
 /// The lock-step runner against the services as processes: the same commands.
 mod lockstep;
 /// The mapper on the real capture and behind the simulator and the driver.

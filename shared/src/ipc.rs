@@ -42,6 +42,10 @@ pub const MAX_SUBSCRIBERS: usize = 6;
 pub const MAX_NODES: usize = 12;
 /// Subscriber buffer of the large slice topics (revolutions, maps).
 pub const SLICE_BUFFER: usize = 2;
+/// Subscriber buffer of a replay's own subscriber of `lidar/points` in the replay's private domain
+/// (`mimnav replay`): the revolutions of a short capture replayed as fast as possible all wait
+/// in it when the reader falls behind, instead of being overwritten.
+pub const REPLAY_BUFFER: usize = 16;
 /// Subscriber buffer of fixed-size topics (raw packets, commands).
 pub const SMALL_BUFFER: usize = 64;
 
@@ -93,6 +97,16 @@ fn topic_err(topic: &'static str, e: impl Debug) -> IpcError {
 
 /// Creates this process's iceoryx2 node with the configured root path and prefix; SIGTERM and
 /// SIGINT end its waits (see [`Node::wait`] and [`WaitSet`]).
+///
+/// Two things happen on the way (issue 23, item 10):
+/// - the shared memory of **dead nodes** of the domain (processes killed before they could clean
+///   up) is removed, always — whatever the config's `node.cleanup-dead-nodes-on-creation` says —
+///   and logged (INFO) when there was any: a service restarted after a SIGKILL (systemd's
+///   `Restart=on-failure`) frees what its predecessor left;
+/// - iceoryx2 makes the domain's **global management segment** (`/dev/shm/PREFIX…_node.…
+///   .global_mgmt`) readable and writable by every user (mode 0666, with `fchmod`, so no umask
+///   helps): the process that created it takes the access of other users away (0660), so
+///   nothing of the stack is world-writable (see [`restrict_global_mgmt`]).
 ///
 /// iceoryx2 installs its signal handler on the first wait, not when the node is created; a
 /// SIGTERM before that would kill the process outright. So this function waits once for zero
@@ -146,9 +160,13 @@ fn create_node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
     let node_name: NodeName = name
         .try_into()
         .map_err(|e| node_err(format!("bad name: {e:?}")))?;
-    NodeBuilder::new()
+    // the dead-node sweep is done below, where its result can be logged; the node keeps the
+    // config's setting for the sweep iceoryx2 does when it is dropped
+    let mut iceoryx2 = config.iceoryx2.clone();
+    iceoryx2.global.node.cleanup_dead_nodes_on_creation = false;
+    let node = NodeBuilder::new()
         .name(&node_name)
-        .config(&config.iceoryx2)
+        .config(&iceoryx2)
         .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
         .create::<Svc>()
         .map_err(|e| {
@@ -156,7 +174,102 @@ fn create_node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
                 "{e:?} (root path {})",
                 config.iceoryx2.global.root_path()
             ))
-        })
+        })?;
+    let swept = node.try_cleanup_dead_nodes();
+    if swept.cleanups > 0 {
+        tracing::info!(
+            dead_nodes = swept.cleanups,
+            "removed the shared memory and files of {} dead iceoryx2 node(s) of this domain",
+            swept.cleanups
+        );
+    }
+    if swept.failed_cleanups > 0 {
+        tracing::warn!(
+            dead_nodes = swept.failed_cleanups,
+            "could not remove what {} dead iceoryx2 node(s) of this domain left (another \
+             user's, or being removed by another process)",
+            swept.failed_cleanups
+        );
+    }
+    if let Err(e) = restrict_global_mgmt(&config.iceoryx2) {
+        tracing::warn!("cannot restrict the access to iceoryx2's global management segment: {e}");
+    }
+    Ok(node)
+}
+
+/// Where Linux keeps POSIX shared memory (`shm_open`), iceoryx2's segments among it.
+pub const SHM_DIR: &str = "/dev/shm";
+
+/// Whether `file` (a name in [`SHM_DIR`]) is the global management segment of the domain with
+/// file prefix `prefix`: `PREFIX` + 40 hex digits (iceoryx2's type hash) + `_node.` + the
+/// iceoryx2 version + the suffix `suffix` (`.global_mgmt`).
+pub fn is_global_mgmt(file: &str, prefix: &str, suffix: &str) -> bool {
+    let Some(rest) = file.strip_prefix(prefix) else {
+        return false;
+    };
+    let Some((hash, rest)) = rest.split_at_checked(40) else {
+        return false;
+    };
+    hash.bytes().all(|b| b.is_ascii_hexdigit())
+        && rest.starts_with("_node.")
+        && rest.ends_with(suffix)
+}
+
+/// Takes the access of other users (read and write) away from the domain's global management
+/// segment where this process's user owns it; returns how many segments it changed. iceoryx2
+/// creates the segment with mode 0666 on purpose (any user may join a domain), but every other
+/// segment of the stack is its owner's alone (0600), so no one else could use the domain anyway.
+/// Group access stays. A segment another user owns is left alone.
+///
+/// The segment outlives every process (iceoryx2 never removes it), so one that root created —
+/// `sudo mimnav goal …` before the installed stack started — would lock the stack's own user out
+/// for good once narrowed. So root first hands a segment it owns to the owner of the domain's
+/// root-path folder (`/run/mimnav/iceoryx2`, the `mimnav` user's), where that is not root.
+pub fn restrict_global_mgmt(config: &iceoryx2::config::Config) -> std::io::Result<usize> {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    let prefix = config.global.prefix.to_string();
+    let suffix = config.global.node.global_mgmt_suffix.to_string();
+    // SAFETY: geteuid(2) has no preconditions and cannot fail
+    let me = unsafe { libc::geteuid() };
+    // root: the domain's owner, to hand the segment to
+    let owner = (me == 0)
+        .then(|| std::fs::metadata(config.global.root_path().to_string()).ok())
+        .flatten()
+        .map(|m| (m.uid(), m.gid()))
+        .filter(|&(uid, _)| uid != 0);
+    let mut changed = 0;
+    for entry in std::fs::read_dir(SHM_DIR)? {
+        let entry = entry?;
+        let name = entry.file_name();
+        if !name
+            .to_str()
+            .is_some_and(|n| is_global_mgmt(n, &prefix, &suffix))
+        {
+            continue;
+        }
+        let path = entry.path();
+        let meta = match std::fs::metadata(&path) {
+            Ok(m) => m,
+            // removed meanwhile
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e),
+        };
+        let mode = meta.mode() & 0o7777;
+        if meta.uid() != me || mode & 0o007 == 0 {
+            continue;
+        }
+        if let Some((uid, gid)) = owner {
+            std::os::unix::fs::chown(&path, Some(uid), Some(gid))?;
+        }
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(mode & !0o007))?;
+        tracing::debug!(
+            segment = %path.display(),
+            "iceoryx2's global management segment: mode {mode:o} → {:o}",
+            mode & !0o007
+        );
+        changed += 1;
+    }
+    Ok(changed)
 }
 
 fn service_name(topic: &'static str) -> Result<ServiceName, IpcError> {
@@ -181,6 +294,7 @@ fn event_service(
 fn slice_service<T, H>(
     node: &Node<Svc>,
     topic: &'static str,
+    max_buffer: usize,
 ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>, IpcError>
 where
     T: Debug + ZeroCopySend + Copy + 'static,
@@ -191,7 +305,7 @@ where
         .user_header::<H>()
         .enable_safe_overflow(true)
         .history_size(0)
-        .subscriber_max_buffer_size(SLICE_BUFFER)
+        .subscriber_max_buffer_size(max_buffer)
         .subscriber_max_borrowed_samples(1)
         .max_publishers(MAX_PUBLISHERS)
         .max_subscribers(MAX_SUBSCRIBERS)
@@ -218,7 +332,7 @@ where
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
     fn open(node: &Node<Svc>, topic: &'static str, capacity: usize) -> Result<Self, IpcError> {
-        let service = slice_service::<T, H>(node, topic)?;
+        let service = slice_service::<T, H>(node, topic, SLICE_BUFFER)?;
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(capacity.max(1))
@@ -388,11 +502,11 @@ where
     T: Debug + ZeroCopySend + Copy + 'static,
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
-    fn open(node: &Node<Svc>, topic: &'static str) -> Result<Self, IpcError> {
-        let service = slice_service::<T, H>(node, topic)?;
+    fn open(node: &Node<Svc>, topic: &'static str, buffer: usize) -> Result<Self, IpcError> {
+        let service = slice_service::<T, H>(node, topic, buffer)?;
         let subscriber = service
             .subscriber_builder()
-            .buffer_size(SLICE_BUFFER)
+            .buffer_size(buffer)
             .create()
             .map_err(|e| topic_err(topic, e))?;
         let listener = listener(node, topic)?;
@@ -428,7 +542,18 @@ pub fn points_publisher(node: &Node<Svc>, max_points: usize) -> Result<PointsPub
 
 /// Opens `lidar/points` for receiving.
 pub fn points_subscriber(node: &Node<Svc>) -> Result<PointsSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::LIDAR_POINTS)
+    SliceSubscriber::open(node, topics::LIDAR_POINTS, SLICE_BUFFER)
+}
+
+/// Opens `lidar/points` for receiving with a buffer of `buffer` revolutions. Only the creator of
+/// the topic can give it room for more than [`SLICE_BUFFER`] (a later opener that asks for more
+/// fails): `mimnav replay` subscribes with [`REPLAY_BUFFER`] before it starts the driver in its
+/// private domain.
+pub fn points_subscriber_with_buffer(
+    node: &Node<Svc>,
+    buffer: usize,
+) -> Result<PointsSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::LIDAR_POINTS, buffer.max(SLICE_BUFFER))
 }
 
 /// Opens `lidar/scan2d` for publishing scans of up to `max_returns` returns.
@@ -438,7 +563,7 @@ pub fn scan_publisher(node: &Node<Svc>, max_returns: usize) -> Result<ScanPublis
 
 /// Opens `lidar/scan2d` for receiving.
 pub fn scan_subscriber(node: &Node<Svc>) -> Result<ScanSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::LIDAR_SCAN2D)
+    SliceSubscriber::open(node, topics::LIDAR_SCAN2D, SLICE_BUFFER)
 }
 
 /// Opens (or creates) the publish-subscribe service of a fixed-size topic with the project's
@@ -593,7 +718,7 @@ pub fn truth_publisher(node: &Node<Svc>, cells: usize) -> Result<TruthPublisher,
 
 /// Opens `sim/truth` for receiving.
 pub fn truth_subscriber(node: &Node<Svc>) -> Result<TruthSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::SIM_TRUTH)
+    SliceSubscriber::open(node, topics::SIM_TRUTH, SLICE_BUFFER)
 }
 
 /// Publisher of `map/layers`.
@@ -612,7 +737,7 @@ pub fn layers_publisher(node: &Node<Svc>, values: usize) -> Result<LayersPublish
 
 /// Opens `map/layers` for receiving.
 pub fn layers_subscriber(node: &Node<Svc>) -> Result<LayersSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::MAP_LAYERS)
+    SliceSubscriber::open(node, topics::MAP_LAYERS, SLICE_BUFFER)
 }
 
 /// Opens `map/plan` for publishing grids of up to `cells` cells.
@@ -622,7 +747,7 @@ pub fn plan_publisher(node: &Node<Svc>, cells: usize) -> Result<PlanPublisher, I
 
 /// Opens `map/plan` for receiving.
 pub fn plan_subscriber(node: &Node<Svc>) -> Result<PlanSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::MAP_PLAN)
+    SliceSubscriber::open(node, topics::MAP_PLAN, SLICE_BUFFER)
 }
 
 /// Publisher of `foliage/alarm`.
@@ -640,7 +765,7 @@ pub fn foliage_publisher(
 
 /// Opens `foliage/alarm` for receiving.
 pub fn foliage_subscriber(node: &Node<Svc>) -> Result<FoliageSubscriber, IpcError> {
-    SliceSubscriber::open(node, topics::FOLIAGE_ALARM)
+    SliceSubscriber::open(node, topics::FOLIAGE_ALARM, SLICE_BUFFER)
 }
 
 /// Opens `lidar/packets` for publishing raw datagrams.
@@ -825,6 +950,117 @@ mod tests {
         let sample = sub.receive().expect("receive").expect("a sample");
         assert_eq!(sample.user_header().seq, 3);
         assert_eq!(sample.payload(), &[0.0, 1.5, 3.0, 4.5, 0.0, 0.0]);
+    }
+
+    /// Every file of the domain — its segments in /dev/shm and the files under its root path —
+    /// with its mode, after a node and a topic were opened.
+    fn domain_files(loc: &PrivateDomain) -> Vec<(PathBuf, u32)> {
+        use std::os::unix::fs::MetadataExt;
+        let mut files = Vec::new();
+        for e in std::fs::read_dir(SHM_DIR).expect("/dev/shm").flatten() {
+            if e.file_name().to_string_lossy().starts_with(&loc.prefix) {
+                let mode = e.metadata().expect("stat").mode() & 0o7777;
+                files.push((e.path(), mode));
+            }
+        }
+        let mut dirs = vec![loc.root.clone()];
+        while let Some(d) = dirs.pop() {
+            let mode = std::fs::metadata(&d).expect("stat").mode() & 0o7777;
+            files.push((d.clone(), mode));
+            for e in std::fs::read_dir(&d).expect("read_dir").flatten() {
+                let meta = e.metadata().expect("stat");
+                if meta.is_dir() {
+                    dirs.push(e.path());
+                } else {
+                    files.push((e.path(), meta.mode() & 0o7777));
+                }
+            }
+        }
+        files
+    }
+
+    /// Issue 23, item 10: iceoryx2 creates the global management segment with mode 0666.
+    #[test]
+    fn shared_memory_world_writable_global_mgmt() {
+        let loc = PrivateDomain::new("ipcmode");
+        let node = node(&loc.config(), "mode-test").expect("node");
+        let _sub = cmd_vel_subscriber(&node).expect("subscriber");
+        let _publ = points_publisher(&node, 16).expect("publisher");
+        let files = domain_files(&loc);
+        let suffix = loc
+            .config()
+            .iceoryx2
+            .global
+            .node
+            .global_mgmt_suffix
+            .to_string();
+        assert!(
+            files.iter().any(|(p, _)| p
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| is_global_mgmt(n, &loc.prefix, &suffix))),
+            "the global management segment is among {files:?}"
+        );
+        assert!(files.len() > 5, "{files:?}");
+        let open: Vec<String> = (files.iter())
+            .filter(|(_, m)| m & 0o002 != 0)
+            .map(|(p, m)| format!("{} {m:o}", p.display()))
+            .collect();
+        assert!(open.is_empty(), "world-writable: {open:?}");
+    }
+
+    /// Root's segment in a domain another user owns goes to that user: the stack's user is not
+    /// locked out by a segment root created first (as root only; others print SKIP).
+    #[test]
+    fn shared_memory_world_writable_global_mgmt_of_root_goes_to_the_domain_owner() {
+        use std::os::unix::fs::MetadataExt;
+        // SAFETY: geteuid(2) has no preconditions and cannot fail
+        if unsafe { libc::geteuid() } != 0 {
+            println!("SKIP: needs root");
+            return;
+        }
+        let loc = PrivateDomain::new("ipcown");
+        std::fs::create_dir_all(&loc.root).expect("root path");
+        // nobody:nogroup owns the domain's folder
+        std::os::unix::fs::chown(&loc.root, Some(65534), Some(65534)).expect("chown");
+        let config = loc.config();
+        let _node = node(&config, "own-test").expect("node");
+        let suffix = config.iceoryx2.global.node.global_mgmt_suffix.to_string();
+        let mgmt: Vec<_> = std::fs::read_dir(SHM_DIR)
+            .expect("/dev/shm")
+            .flatten()
+            .filter(|e| {
+                e.file_name()
+                    .to_str()
+                    .is_some_and(|n| is_global_mgmt(n, &loc.prefix, &suffix))
+            })
+            .map(|e| e.metadata().expect("stat"))
+            .collect();
+        assert_eq!(mgmt.len(), 1);
+        assert_eq!((mgmt[0].uid(), mgmt[0].gid()), (65534, 65534));
+        assert_eq!(mgmt[0].mode() & 0o777, 0o660);
+    }
+
+    #[test]
+    fn the_global_mgmt_segment_is_told_from_others() {
+        let h = "9204dd183d1c4d8e1ff592a30766ffa6765aa8b5";
+        assert!(is_global_mgmt(
+            &format!("mimnav_{h}_node.0_10_0.global_mgmt"),
+            "mimnav_",
+            ".global_mgmt"
+        ));
+        // another domain whose prefix starts with ours
+        assert!(!is_global_mgmt(
+            &format!("mimnav_x_{h}_node.0_10_0.global_mgmt"),
+            "mimnav_",
+            ".global_mgmt"
+        ));
+        assert!(!is_global_mgmt(
+            &format!("mimnav_{h}_1234.data"),
+            "mimnav_",
+            ".global_mgmt"
+        ));
+        assert!(!is_global_mgmt("mimnav_node", "mimnav_", ".global_mgmt"));
     }
 
     #[test]

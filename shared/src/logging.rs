@@ -46,9 +46,12 @@ pub fn init(level: &str) {
                 journal_error = Some(e);
             }
             let ansi = !journal && std::io::IsTerminal::is_terminal(&std::io::stderr());
+            // a closed stderr (the reader of a pipe gone) loses the lines, never the process:
+            // without this the writer's error is reported with eprintln!, which panics
             let fmt = tracing_subscriber::fmt()
                 .with_env_filter(filter)
                 .with_writer(std::io::stderr)
+                .log_internal_errors(false)
                 .with_ansi(ansi);
             if journal {
                 fmt.without_time().try_init().is_ok()

@@ -62,8 +62,15 @@ impl Notifier {
         })
     }
 
-    /// `READY=1` with a first status: call once every publisher and subscriber is open.
+    /// `READY=1` with a first status: call once every publisher and subscriber is open. Sent
+    /// once: a later call only updates the status. (The manager arms the watchdog on the first
+    /// `READY=1` and ignores the rest; a looped replay that sent it on every pass, resetting the
+    /// ping clock each time without a `WATCHDOG=1`, was killed by the watchdog — issue 23.)
     pub fn ready(&mut self, status: &str) {
+        if self.ready {
+            self.status(status);
+            return;
+        }
         self.status = status.to_string();
         self.ready = true;
         self.send(&[
@@ -168,7 +175,9 @@ mod tests {
         n.alive(t0 + Duration::from_millis(100)); // too soon after READY
         n.alive(t0 + Duration::from_millis(700));
         n.alive(t0 + Duration::from_millis(800)); // too soon after the last ping
-        n.status("topics open"); // unchanged: nothing
+        n.ready("topics open again"); // READY=1 once: only the status, the ping clock untouched
+        n.alive(t0 + Duration::from_millis(1200)); // due: 500 ms after the last ping
+        n.status("topics open again"); // unchanged: nothing
         n.status("stale input: no map for 0.2 s");
         let t1 = t0 + Duration::from_secs(5);
         n.silent(
@@ -207,6 +216,8 @@ mod tests {
             got,
             [
                 "READY=1\nSTATUS=topics open\n",
+                "WATCHDOG=1\n",
+                "STATUS=topics open again\n",
                 "WATCHDOG=1\n",
                 "STATUS=stale input: no map for 0.2 s\n",
                 "STATUS=stale input: no scan for 2 s\n",

@@ -362,6 +362,16 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     );
     assert_eq!(n1, n0 + 1);
 
+    // issue 23 item 1: the driver has looped the capture (passes of 0.5 s) since its SIGKILL,
+    // several watchdog periods ago: that was its only restart, none by the watchdog
+    let u = "mimnav-velodyne.service";
+    assert_eq!(
+        manager.prop(u, "NRestarts"),
+        "1",
+        "{u}: restarted by its watchdog?\n{}",
+        logs()
+    );
+
     // 4. stop: SIGTERM ends every service cleanly within a second
     let pids: Vec<i32> = SERVICES
         .iter()

@@ -104,6 +104,10 @@ pub struct MapperConfig {
     /// A pane is extended along its fitted line up to this far from its evidence, across gaps
     /// and beyond its ends, until an opening, a solid or a passable cell, m (0: never).
     pub glass_extend_m: f64,
+    /// A solid stretch of a pane's line no longer than this, with the line going on beyond it,
+    /// is a post between panes (a mullion): the extension goes on past it, m (0: every solid
+    /// ends a pane).
+    pub glass_mullion_m: f64,
     /// Planning cost of a passable cell, 0–1 (free 0, solid and glass 1).
     pub passable_cost: f64,
     /// Odometry older than this is stale: the glass memory is not moved, m.
@@ -140,6 +144,7 @@ impl Default for MapperConfig {
             glass_memory_m: 8.0,
             glass_normal_deg: 2.0,
             glass_extend_m: 3.0,
+            glass_mullion_m: 0.2,
             passable_cost: 0.2,
             odom_max_age_s: 0.5,
             points_deadline_s: 0.5,
@@ -253,6 +258,7 @@ impl MapperConfig {
         r.check("mapper.glass_memory_m", self.glass_memory_m, 0.0, 1000.0);
         r.check("mapper.glass_normal_deg", self.glass_normal_deg, 0.1, 30.0);
         r.check("mapper.glass_extend_m", self.glass_extend_m, 0.0, 20.0);
+        r.check("mapper.glass_mullion_m", self.glass_mullion_m, 0.0, 2.0);
         r.check("mapper.passable_cost", self.passable_cost, 0.0, 1.0);
         r.check("mapper.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check(

@@ -433,6 +433,7 @@ impl Mapper {
                 &pose,
                 grid,
                 self.params.mapper.glass_extend_m,
+                self.params.mapper.glass_mullion_m,
                 &mut self.classes,
                 &mut self.cost,
                 occluded,

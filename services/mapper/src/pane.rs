@@ -221,6 +221,8 @@ pub struct Panes {
     bins: Vec<u8>,
     bin_cells: Vec<Option<usize>>,
     reach: Vec<bool>,
+    /// Scratch per bin: a post the extension passes.
+    post: Vec<bool>,
 }
 
 const UNSEEN: u8 = 0;
@@ -389,6 +391,7 @@ impl Panes {
         pose: &Pose2,
         grid: GridSpec,
         extend_m: f64,
+        mullion_m: f64,
         classes: &mut [u8],
         cost: &mut [u8],
         occluded: impl Fn(usize) -> bool,
@@ -457,6 +460,28 @@ impl Panes {
                 })
             };
             let limit = (extend_m / bin_m).round() as usize;
+            // a solid stretch of the line no longer than `mullion_m`, with the line going on
+            // beyond it, is a post between panes (a mullion, a frame's joint), not the pane's
+            // end: the run goes on past it (a framed partition seen at a slant showed its
+            // posts and none of the panes between them, and Spot walked into one)
+            self.post.clear();
+            self.post.resize(n, false);
+            let post_bins = (mullion_m / bin_m).round() as usize;
+            let mut b = 0;
+            while b < n {
+                if self.bins[b] != UNSEEN || !blocked(self.bin_cells[b]) {
+                    b += 1;
+                    continue;
+                }
+                let from = b;
+                while b < n && self.bins[b] == UNSEEN && blocked(self.bin_cells[b]) {
+                    b += 1;
+                }
+                let inside = from > 0 && b < n && self.bin_cells[from - 1].is_some();
+                if inside && b - from <= post_bins && self.bin_cells[b].is_some() {
+                    self.post[from..b].fill(true);
+                }
+            }
             // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
             // glass or open, with nothing solid or passable between; a run from open evidence
             // that ends at something solid or passable is dropped — the rest of an opening
@@ -475,6 +500,9 @@ impl Panes {
                         OPEN => {
                             run = Some((0, true));
                             run_bins.clear();
+                        }
+                        _ if self.post[b] => {
+                            run = run.map(|(r, o)| (r + 1, o)).filter(|&(r, _)| r <= limit);
                         }
                         _ if blocked(self.bin_cells[b]) => {
                             if run.is_some_and(|(_, from_open)| from_open) {

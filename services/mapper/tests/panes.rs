@@ -98,14 +98,20 @@ impl Scene {
 struct Found {
     pane_glass: f64,
     pane_cells: usize,
+    /// The share of the pane's cells within 2 m past the end of the range the foot slid over
+    /// that are glass: the extension along the line.
+    beyond_glass: f64,
     opening_blocked: usize,
     opening_cells: usize,
 }
 
 fn drive(scene: &Scene, seed: u64) -> Found {
+    drive_with(scene, seed, &Config::default())
+}
+
+fn drive_with(scene: &Scene, seed: u64, config: &Config) -> Found {
     let world = WorldFile::parse(&scene.world(), "test scene").expect("a valid scene");
     let compiled = world.compile();
-    let config = Config::default();
     let grid: GridSpec = config.map.grid();
     // up to the glass square to it from where the robot starts, then along it
     let start_s = {
@@ -147,6 +153,7 @@ fn drive(scene: &Scene, seed: u64) -> Found {
     let ((ux, uy), _) = scene.dir();
     let seen = (start_s.min(scene.end_s), start_s.max(scene.end_s));
     let (mut pane_cells, mut pane_glass) = (0usize, 0usize);
+    let (mut beyond_cells, mut beyond_glass) = (0usize, 0usize);
     for (i, &t) in truth.iter().enumerate() {
         if t != cell_class::GLASS {
             continue;
@@ -158,6 +165,10 @@ fn drive(scene: &Scene, seed: u64) -> Found {
         // the range of the pane the robot's foot slid over (where a spike could be seen)
         let (wx, wy) = pose.to_fixed(f64::from(x), f64::from(y));
         let along = (wx - 5.0) * ux + wy * uy;
+        if along > seen.1 && along < seen.1 + 2.0 {
+            beyond_cells += 1;
+            beyond_glass += usize::from(near(i, cell_class::GLASS));
+        }
         if along < seen.0 || along > seen.1 {
             continue;
         }
@@ -198,6 +209,7 @@ fn drive(scene: &Scene, seed: u64) -> Found {
     Found {
         pane_glass: pane_glass as f64 / pane_cells.max(1) as f64,
         pane_cells,
+        beyond_glass: beyond_glass as f64 / beyond_cells.max(1) as f64,
         opening_blocked,
         opening_cells,
     }
@@ -317,5 +329,35 @@ fn a_storefront_met_head_on_with_a_door_off_the_line() {
             mullions: vec![],
             end_s: -2.2 - 0.8,
         },
+    );
+}
+
+#[test]
+fn a_framed_pane_is_drawn_on_past_its_posts_where_the_robot_has_not_faced_it() {
+    // 35° off square, posts every 1.2 m; the drive ends 0.6 m before a post, so the pane past it
+    // has never been met squarely: only its line continued past the post says it is there
+    let scene = || Scene {
+        angle_deg: 35.0,
+        openings: vec![],
+        mullions: (0..8).map(|k| -4.2 + 1.2 * f64::from(k)).collect(),
+        end_s: 0.6,
+    };
+    let mut found = Vec::new();
+    for mullion_m in [0.2, 0.0] {
+        let mut config = Config::default();
+        config.mapper.glass_mullion_m = mullion_m;
+        let f = drive_with(&scene(), 11, &config);
+        println!("glass_mullion_m = {mullion_m}: {f:?}");
+        found.push(f.beyond_glass);
+    }
+    assert!(
+        found[0] >= 0.9,
+        "past the post the line is glass: {:.2}",
+        found[0]
+    );
+    assert!(
+        found[1] < 0.5,
+        "with every solid ending a pane, the line stops at the post: {:.2}",
+        found[1]
     );
 }

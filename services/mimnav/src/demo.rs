@@ -9,11 +9,20 @@
 //! follows the episode with a progress bar, measures the latency from each revolution's last
 //! packet to the command planned from it (from the messages' own sequence numbers and
 //! monotonic timestamps), writes the last map with the driven path as a PNG and prints the
-//! figures. Exit status: 0 when the goal was reached, 3 on contact or timeout.
+//! figures. Exit status: 0 when the goal was reached, 3 on contact or timeout, 130 when
+//! interrupted.
+//!
+//! Stopping (issue 23, item 9). The children never outlive the demo: each is started with a
+//! parent-death signal (SIGTERM, see [`crate::procs`]), so even a SIGKILL of the demo ends them
+//! and the simulated robot with them. They run in process groups of their own, so a Ctrl-C on the
+//! terminal reaches the demo alone, which stops them in an order that halts the robot first: on
+//! SIGINT or SIGTERM (and on any error) it stops the planner, commands zero velocity on `cmd_vel`
+//! itself and waits (up to [`HALT_WITHIN`]) until the odometry shows the robot at rest, then
+//! stops the simulator, then the driver, mapper and classifier, and waits for each.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-use std::process::{ExitCode, Stdio};
+use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -23,13 +32,31 @@ use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, PrivateDomain};
 use mimnav_shared::pose::{Pose2Ext, pose2};
-use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
+use mimnav_shared::topics::{
+    Goal, MapHeader, Odometry, VelocityCommand, command_flags, command_status,
+};
 use mimnav_sim::world::WorldFile;
 
-use crate::procs::{Service, service_binary};
+use crate::procs::{Options, Service, service_binary};
+
+/// How long the demo waits, once interrupted, for the odometry to show the robot at rest before
+/// it stops the simulator anyway.
+pub const HALT_WITHIN: Duration = Duration::from_secs(3);
+/// How long a child has to end after SIGTERM before it is killed.
+const STOP_GRACE: Duration = Duration::from_secs(2);
+/// Below these speeds (m/s, rad/s) the robot is at rest.
+const AT_REST: (f32, f32) = (1e-3, 1e-3);
 
 /// Arguments of `mimnav demo`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Stopping: Ctrl-C (SIGINT) or SIGTERM stops the robot first: the demo stops the planner, \
+commands zero velocity on cmd_vel, waits up to 3 s until the odometry shows the robot at rest \
+(and prints where it stopped), then stops the simulator and the other services and waits for \
+them; exit status 130. The services never outlive the demo: should it be killed (SIGKILL), the \
+kernel sends each of them SIGTERM (a parent-death signal) and they end cleanly.
+
+Exit status: 0 goal reached, 3 contact or timeout, 130 interrupted, 1 error.")]
 pub struct DemoArgs {
     /// The world (default: sim.world of the config).
     #[arg(long, value_name = "FILE")]
@@ -111,6 +138,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let commands = ipc::cmd_vel_subscriber(&node)?;
     let odom = ipc::odom_subscriber(&node)?;
     let goal_pub = ipc::goal_publisher(&node)?;
+    // the demo's own stop command, sent once the planner is stopped (see `Children::halt_robot`)
+    let stop_pub = ipc::cmd_vel_publisher(&node)?;
 
     println!(
         "{}: from ({:.1}, {:.1}) to ({:.1}, {:.1}) with a {} ({} m radius); driver, mapper, foliage classifier and planner as processes, the simulator streaming UDP to 127.0.0.1:{data_port}",
@@ -122,14 +151,24 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         config.robot.name,
         config.robot.radius_m
     );
-    let mut services = Vec::new();
+    // started from this (the main) thread: their parent-death signal is tied to it
+    let own_group = Options {
+        own_process_group: true,
+        piped_stdout: false,
+    };
+    let mut children = Children::default();
     for name in [
         "mimnav-velodyne",
         "mimnav-mapper",
         "mimnav-foliage",
         "mimnav-planner",
     ] {
-        services.push(Service::start(&service_binary(name)?, &child_args)?);
+        let s = Service::start_with(&service_binary(name)?, &child_args, own_group)?;
+        if name == "mimnav-planner" {
+            children.planner = Some(s);
+        } else {
+            children.others.push(s);
+        }
     }
     // the planner is up when it speaks (a stale-input stop every 100 ms while no map comes)
     let until = Instant::now() + Duration::from_secs(10);
@@ -137,16 +176,14 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         if commands.receive()?.is_some() {
             break;
         }
-        if let Some(s) = services
-            .iter_mut()
-            .find_map(|s| s.exited().map(|e| (s.name().to_string(), e)))
-        {
-            bail!("{} exited at start ({}); see its messages above", s.0, s.1);
+        if let Some((name, status)) = children.exited_early() {
+            bail!("{name} exited at start ({status}); see its messages above");
         }
         if Instant::now() > until {
             bail!("the planner did not publish on cmd_vel within 10 s");
         }
-        if node.wait(Duration::from_millis(20)).is_err() {
+        if !ipc::sleep(&node, Duration::from_millis(20)) {
+            // nothing moves yet: dropping the children stops them
             return Ok(ExitCode::from(130));
         }
     }
@@ -165,12 +202,14 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     if let Some(s) = args.seed {
         sim_args.extend(["--seed".into(), s.to_string()]);
     }
-    let sim_bin = service_binary("mimnav-sim")?;
-    let mut sim = std::process::Command::new(&sim_bin)
-        .args(&sim_args)
-        .stdout(Stdio::piped())
-        .spawn()
-        .with_context(|| format!("cannot start {}", sim_bin.display()))?;
+    children.sim = Some(Service::start_with(
+        &service_binary("mimnav-sim")?,
+        &sim_args,
+        Options {
+            piped_stdout: true,
+            ..own_group
+        },
+    )?);
     let started = Instant::now();
 
     let bar = indicatif::ProgressBar::new_spinner();
@@ -189,14 +228,14 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let mut path: Vec<(f64, f64)> = Vec::new();
     let mut goal_seen = false;
     let mut interrupted = false;
-    let status = loop {
-        if let Some(s) = sim.try_wait().context("cannot wait for the simulator")? {
-            break s;
+    loop {
+        if children.sim_exited() {
+            break;
         }
-        if node.wait(Duration::from_millis(5)).is_err() {
+        if !ipc::sleep(&node, Duration::from_millis(5)) {
+            // SIGINT or SIGTERM: only the demo got it (the children have groups of their own)
             interrupted = true;
-            // the simulator got the same Ctrl-C; wait for its summary
-            break sim.wait().context("cannot wait for the simulator")?;
+            break;
         }
         while let Some(sample) = plans.receive()? {
             let h = *sample.user_header();
@@ -251,15 +290,14 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
                 o.omega
             ));
         }
-    };
-    bar.finish_and_clear();
-    let wall_s = started.elapsed().as_secs_f64();
-    let mut summary = String::new();
-    if let Some(mut out) = sim.stdout.take() {
-        std::io::Read::read_to_string(&mut out, &mut summary).ok();
     }
-    for s in &mut services {
-        s.stop(Duration::from_secs(2));
+    bar.finish_and_clear();
+    let halted = interrupted.then(|| children.halt_robot(&node, &stop_pub, &odom));
+    let (status, summary) = children.stop_sim();
+    let wall_s = started.elapsed().as_secs_f64();
+    children.stop_rest();
+    if let Some(h) = &halted {
+        println!("{}", h.describe());
     }
     // the simulator's summary line (`mimnav-sim --json`); a run cut short may have printed none
     let ended: Option<mimnav_sim::Summary> = summary
@@ -329,8 +367,154 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     if interrupted {
         return Ok(ExitCode::from(130));
     }
-    Ok(match (outcome, status.success()) {
+    Ok(match (outcome, status.is_some_and(|s| s.success())) {
         ("goal_reached", true) => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
+}
+
+/// The demo's children. They stop in the order that halts the robot first — the planner, the
+/// simulator, then the rest — also when this value is dropped on an error.
+#[derive(Default)]
+struct Children {
+    // dropped in declaration order
+    planner: Option<Service>,
+    sim: Option<Service>,
+    others: Vec<Service>,
+}
+
+/// How the robot came to rest after an interruption.
+struct Halted {
+    /// The last odometry received after the stop command went out.
+    last: Option<Odometry>,
+    /// It showed the robot at rest.
+    at_rest: bool,
+    /// From the start of the halt (the signal) to the odometry at rest, or to giving up.
+    after: Duration,
+}
+
+impl Halted {
+    fn describe(&self) -> String {
+        let secs = self.after.as_secs_f64();
+        match (self.at_rest, &self.last) {
+            (true, Some(o)) => format!(
+                "interrupted: the robot stopped at ({:.2}, {:.2}) {secs:.2} s after the signal \
+                 (planner stopped, zero velocity commanded); services stopped",
+                o.x, o.y
+            ),
+            (false, Some(o)) => format!(
+                "interrupted: the robot was not at rest {secs:.2} s after the signal \
+                 (v {:.2} m/s, ω {:.2} rad/s at ({:.2}, {:.2})); the simulator was stopped anyway",
+                o.v, o.omega, o.x, o.y
+            ),
+            (_, None) => format!(
+                "interrupted: no odometry within {secs:.2} s of the signal; the simulator was \
+                 stopped anyway"
+            ),
+        }
+    }
+}
+
+impl Children {
+    /// A service that has exited, with its status (while starting, none should have).
+    fn exited_early(&mut self) -> Option<(String, std::process::ExitStatus)> {
+        self.planner
+            .iter_mut()
+            .chain(self.others.iter_mut())
+            .find_map(|s| s.exited().map(|e| (s.name().to_string(), e)))
+    }
+
+    /// The simulator has exited (or was never started).
+    fn sim_exited(&mut self) -> bool {
+        self.sim.as_mut().is_none_or(|s| s.exited().is_some())
+    }
+
+    /// Stops the planner (no more driving commands), then commands zero velocity on `cmd_vel`
+    /// every 100 ms until the odometry, published after the first of them, shows the robot at
+    /// rest, or [`HALT_WITHIN`] passes, or a second signal comes.
+    fn halt_robot(
+        &mut self,
+        node: &iceoryx2::prelude::Node<ipc::Svc>,
+        stop: &ipc::ValuePublisher<VelocityCommand>,
+        odom: &ipc::ValueSubscriber<Odometry>,
+    ) -> Halted {
+        let began = Instant::now();
+        if let Some(mut planner) = self.planner.take() {
+            planner.stop(STOP_GRACE);
+        }
+        let first_stop_ns = ipc::monotonic_ns();
+        let (mut seq, mut next_stop, mut last) = (0u64, began, None);
+        loop {
+            let now = Instant::now();
+            if now >= next_stop {
+                let cmd = VelocityCommand {
+                    seq,
+                    stamp_mono_ns: ipc::monotonic_ns(),
+                    status: command_status::NO_GOAL,
+                    ..VelocityCommand::default()
+                };
+                if let Err(e) = stop.publish(cmd) {
+                    tracing::warn!("cannot command the robot to stop: {e}");
+                }
+                (seq, next_stop) = (seq + 1, now + Duration::from_millis(100));
+            }
+            while let Ok(Some(o)) = odom.receive() {
+                if o.rx_mono_ns < first_stop_ns {
+                    continue;
+                }
+                last = Some(o);
+                if o.v.abs() < AT_REST.0 && o.omega.abs() < AT_REST.1 {
+                    return Halted {
+                        last,
+                        at_rest: true,
+                        after: began.elapsed(),
+                    };
+                }
+            }
+            if self.sim_exited()
+                || began.elapsed() > HALT_WITHIN
+                || !ipc::sleep(node, Duration::from_millis(5))
+            {
+                return Halted {
+                    last,
+                    at_rest: false,
+                    after: began.elapsed(),
+                };
+            }
+        }
+    }
+
+    /// Stops the simulator (if it still runs) and returns its exit status and its stdout.
+    fn stop_sim(&mut self) -> (Option<std::process::ExitStatus>, String) {
+        match self.sim.as_mut() {
+            Some(sim) => (sim.stop(STOP_GRACE), sim.read_stdout()),
+            None => (None, String::new()),
+        }
+    }
+
+    /// Stops the planner, then the driver, mapper and classifier together, and waits for each.
+    fn stop_rest(&mut self) {
+        if let Some(planner) = self.planner.as_mut() {
+            planner.stop(STOP_GRACE);
+        }
+        for s in &mut self.others {
+            s.terminate();
+        }
+        for s in &mut self.others {
+            s.stop(STOP_GRACE);
+        }
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        // an early return or an error: the same order, without the stop command
+        if let Some(mut sim) = self.sim.take() {
+            if let Some(planner) = self.planner.as_mut() {
+                planner.stop(STOP_GRACE);
+            }
+            sim.stop(STOP_GRACE);
+        }
+        self.stop_rest();
+    }
 }

@@ -423,14 +423,15 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
     let mut episodes = results.into_iter().collect::<Result<Vec<_>>>()?;
     episodes.sort_by_key(|e| (e.world.clone(), e.method as u8, e.seed));
     let wall = started.elapsed().as_secs_f64();
-    println!(
+    outln!(
         "{} seeds per world and method (from seed {}), lock-step; F-score: mean over the classes the world has, cells within 4.5 m, every fifth revolution\n",
-        args.seeds, args.first_seed
-    );
-    println!(
+        args.seeds,
+        args.first_seed
+    )?;
+    outln!(
         "| scenario | method | success | normalised length | length / shortest | F-score | contact / froze / timeout | planner µs/rev | map µs/rev |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    )?;
+    outln!("|---|---|---|---|---|---|---|---|---|")?;
     // the summary line's method: the paper's, or the first one run without it
     let headline = if methods.contains(&Method::Adaptive) {
         Method::Adaptive
@@ -455,7 +456,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 .iter()
                 .find(|e| e.world == scene.name)
                 .map_or(1.0, |e| e.straight_m);
-            println!(
+            outln!(
                 "| {} | {} | {:.0} % ({}/{}) | {} | {} | {:.3} | {} / {} / {} | {:.0} | {:.0} |",
                 scene.name,
                 m.label(),
@@ -474,7 +475,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 s.timeouts,
                 s.plan_ns as f64 / 1e3 / s.revolutions.max(1) as f64,
                 s.map_ns as f64 / 1e3 / s.revolutions.max(1) as f64,
-            );
+            )?;
         }
     }
     if let Some(dir) = &args.plots {
@@ -487,13 +488,13 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
             let path = dir.join(format!("{stem}.png"));
             let eps: Vec<&Episode> = episodes.iter().filter(|e| e.world == scene.name).collect();
             crate::snapshot::write_png(&path, &plot(scene, &eps))?;
-            println!("\nwrote {}", path.display());
+            outln!("\nwrote {}", path.display())?;
         }
         let legend: Vec<String> = methods
             .iter()
             .map(|m| format!("{} {}", m.colour_name(), m.label()))
             .collect();
-        println!("paths: {}; start white, goal blue", legend.join(", "));
+        outln!("paths: {}; start white, goal blue", legend.join(", "))?;
     }
     if args.json {
         for e in &episodes {
@@ -514,10 +515,10 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 "planner_us_per_rev": e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64,
                 "touched": e.touched,
             });
-            println!("{line}");
+            outln!("{line}")?;
         }
     }
-    println!(
+    outln!(
         "\n{} episodes in {:.0} s on {} threads; {}: {:.1} % success over {} episodes, normalised length {}",
         episodes.len(),
         wall,
@@ -527,7 +528,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
         all.runs,
         all.mean_length()
             .map_or_else(|| "–".to_string(), |l| format!("{l:.3}"))
-    );
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 

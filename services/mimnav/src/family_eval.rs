@@ -164,19 +164,19 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
         row.worlds_impassable = of_family.filter(|w| !w.passable).count();
         row.successes = row.reached + row.stopped_without_contact;
     }
-    println!(
+    outln!(
         "{} worlds, {} seeds each (from seed {}), {}, lock-step; passable worlds succeed on reaching the goal, impassable ones on touching nothing by the time limit\n",
         worlds.len(),
         args.seeds,
         args.first_seed,
         crate::worlds::robot_label(config),
-    );
-    println!(
+    )?;
+    outln!(
         "| family | method | worlds passable / impassable | success | passable: goal reached | passable: contact / froze / timeout | impassable: no contact | impassable: contact |"
-    );
-    println!("|---|---|---|---|---|---|---|---|");
+    )?;
+    outln!("|---|---|---|---|---|---|---|---|")?;
     for row in rows.values() {
-        println!(
+        outln!(
             "| {} | {} | {} / {} | {} | {} | {} / {} / {} | {} | {} |",
             row.family,
             row.method,
@@ -189,7 +189,7 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             row.timeout_passable,
             pct(row.stopped_without_contact, row.impassable_episodes),
             row.contacts_impassable,
-        );
+        )?;
     }
     if args.json {
         for (&(w, m, seed), e) in jobs.iter().zip(&episodes) {
@@ -216,21 +216,21 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
                 "blocked": e.blocked,
                 "touched": e.touched,
             });
-            println!("{line}");
+            outln!("{line}")?;
         }
         for row in rows.values() {
             let mut v = serde_json::to_value(row)?;
             if let Some(o) = v.as_object_mut() {
                 o.insert("kind".into(), "family".into());
             }
-            println!("{v}");
+            outln!("{v}")?;
         }
     }
-    println!(
+    outln!(
         "\n{} episodes in {:.0} s on {} threads",
         episodes.len(),
         started.elapsed().as_secs_f64(),
         workers
-    );
+    )?;
     Ok(ExitCode::SUCCESS)
 }

@@ -657,7 +657,7 @@ pub fn run(
         }
     }
     let p = config.foliage;
-    println!(
+    outln!(
         "{} seeds (from seed {}) × {} scans per world, robot and motion; laser {} ({}), d = [{}, {}] m; moving: straight at {}",
         args.seeds,
         args.first_seed,
@@ -675,15 +675,15 @@ pub fn run(
             .map(|(r, v)| format!("{v} m/s ({r})"))
             .collect::<Vec<_>>()
             .join(", ")
-    );
-    println!("\nFalse alarms (an alarm with no obstacle-class return on an obstacle):\n");
-    println!(
+    )?;
+    outln!("\nFalse alarms (an alarm with no obstacle-class return on an obstacle):\n")?;
+    outln!(
         "| world | robot | motion | scans | alarms | false alarms | per 1000 scans | classifier µs/scan |"
-    );
-    println!("|---|---|---|---|---|---|---|---|");
+    )?;
+    outln!("|---|---|---|---|---|---|---|---|")?;
     let (mut grass, mut all) = (Summary::default(), Summary::default());
     for (scene, r, m, s) in &rows {
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {} | {:.2} | {:.0} |",
             scene.name,
             robots[*r],
@@ -693,7 +693,7 @@ pub fn run(
             s.false_alarms,
             s.per_1000(),
             s.classify_ns as f64 / 1e3 / s.scans.max(1) as f64
-        );
+        )?;
         let target = if s.obstacles == 0 {
             &mut grass
         } else {
@@ -705,14 +705,15 @@ pub fn run(
     let with_obstacles: Vec<_> = rows.iter().filter(|r| r.3.obstacles > 0).collect();
     let mut det = Summary::default();
     if !with_obstacles.is_empty() {
-        println!(
+        outln!(
             "\nDetection (obstacle-scans: one obstacle in one scan; visible: ≥ {} returns on it within [d_min, d_max]; alarmed: an obstacle-class return on it; as a run: visible with ≥ {} of those returns consecutive):\n",
-            args.min_returns, args.min_run
-        );
-        println!(
+            args.min_returns,
+            args.min_run
+        )?;
+        outln!(
             "| world | robot | motion | in range | out of the beam | hidden by grass (glimpsed) | visible | alarmed | visible as a run → alarmed | delay mean / max, scans (s) | visible, never alarmed | alarmed from a glimpse |"
-        );
-        println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+        )?;
+        outln!("|---|---|---|---|---|---|---|---|---|---|---|---|")?;
         for (scene, r, m, s) in with_obstacles {
             let glimpse_alarms: u64 = episodes
                 .iter()
@@ -722,7 +723,7 @@ pub fn run(
                 .flat_map(|e| &e.obstacles)
                 .map(|o| o.alarmed_not_visible)
                 .sum();
-            println!(
+            outln!(
                 "| {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {} | {} of {} | {} |",
                 scene.name,
                 robots[*r],
@@ -741,7 +742,7 @@ pub fn run(
                 s.never,
                 s.onsets,
                 glimpse_alarms,
-            );
+            )?;
             det.visible += s.visible;
             det.alarmed += s.alarmed;
             det.visible_run += s.visible_run;
@@ -754,10 +755,10 @@ pub fn run(
     }
     let contacts: usize = rows.iter().map(|r| r.3.contacts).sum();
     if contacts > 0 {
-        println!("\n{contacts} moving episodes touched an obstacle and stopped there");
+        outln!("\n{contacts} moving episodes touched an obstacle and stopped there")?;
     }
     if args.json {
-        println!();
+        outln!()?;
         for e in &episodes {
             let line = serde_json::json!({
                 "world": scenes[e.world].name,
@@ -771,18 +772,18 @@ pub fn run(
                 "driven_m": e.driven_m,
                 "obstacles": e.obstacles,
             });
-            println!("{line}");
+            outln!("{line}")?;
         }
     }
     all.scans += grass.scans;
     all.false_alarms += grass.false_alarms;
-    println!(
+    outln!(
         "\n{} episodes in {wall:.0} s on {workers} threads",
         episodes.len()
-    );
+    )?;
     let verdict = |ok: bool| if ok { "met" } else { "MISSED" };
     if grass.scans > 0 {
-        println!(
+        outln!(
             "pure grass: {} false alarms in {} scans, {:.2} per 1000 (target ≤ {TARGET_FALSE_PER_1000}: {}); all worlds: {} in {}, {:.2} per 1000",
             grass.false_alarms,
             grass.scans,
@@ -791,10 +792,10 @@ pub fn run(
             all.false_alarms,
             all.scans,
             all.per_1000()
-        );
+        )?;
     }
     if let Some(d) = det.detection() {
-        println!(
+        outln!(
             "visible obstacles: alarmed in {} of {} obstacle-scans, {:.2} % (target ≥ {:.0} %: {}); delay mean / max {} scans; {} of {} never alarmed",
             det.alarmed,
             det.visible,
@@ -804,12 +805,12 @@ pub fn run(
             det.delay_text(),
             det.never,
             det.onsets
-        );
-        println!(
+        )?;
+        outln!(
             "  of those, visible as a run (≥ {} consecutive returns on it): {}",
             args.min_run,
             det.detection_run_text()
-        );
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

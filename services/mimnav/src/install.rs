@@ -122,32 +122,32 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
     for b in BINARIES {
         let to = root.join("usr/bin").join(b);
         install_binary(&bin_dir.join(b), &to)?;
-        println!("installed {}", to.display());
+        outln!("installed {}", to.display())?;
     }
     for (path, text) in SYSTEMD_FILES {
         let to = root.join(path);
         write(&to, text.as_bytes(), 0o644)?;
-        println!("installed {}", to.display());
+        outln!("installed {}", to.display())?;
     }
     let etc = root.join("etc/mimnav");
     for (name, text) in ROBOTS {
         let to = etc.join("robots").join(name);
         write(&to, text.as_bytes(), 0o644)?;
-        println!("installed {}", to.display());
+        outln!("installed {}", to.display())?;
     }
     let config = deployed_config()?;
     let to = etc.join("mimnav.toml");
     if to.exists() {
         let dist = etc.join("mimnav.toml.dist");
         write(&dist, config.as_bytes(), 0o644)?;
-        println!(
+        outln!(
             "kept {} (yours); the shipped one is {}: compare them",
             to.display(),
             dist.display()
-        );
+        )?;
     } else {
         write(&to, config.as_bytes(), 0o644)?;
-        println!("installed {}", to.display());
+        outln!("installed {}", to.display())?;
     }
     let steps: [&[&str]; 3] = [
         &["systemd-sysusers", "mimnav.conf"],
@@ -163,20 +163,20 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
             if !status.success() {
                 bail!("`{}` failed ({status})", step.join(" "));
             }
-            println!("ran {}", step.join(" "));
+            outln!("ran {}", step.join(" "))?;
         }
     } else {
-        println!("then, on the robot:");
+        outln!("then, on the robot:")?;
         for step in steps {
-            println!("  {}", step.join(" "));
+            outln!("  {}", step.join(" "))?;
         }
     }
-    println!(
+    outln!(
         "start the stack now and at every boot:  systemctl enable --now mimnav.target\n\
          see it:   systemctl status 'mimnav-*'    journalctl -u 'mimnav-*' -f\n\
          the config is {}; after editing it: systemctl restart mimnav.target",
         mimnav_shared::config::DEFAULT_CONFIG_PATH
-    );
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -1,6 +1,15 @@
 //! `mimnav`: the command-line front end. It starts the services as separate processes and shows
 //! what they publish; it never runs an algorithm itself.
 
+/// `outln!`: `println!` that returns the write's error instead of panicking, so a closed stdout
+/// (`mimnav replay F | head -2`) ends the command quietly (see [`broken_pipe`]).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
 mod demo;
 mod eval;
 mod family_eval;
@@ -89,7 +98,7 @@ fn main() -> ExitCode {
     let config = match Config::resolve(config_path.as_deref(), &cli.set) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("mimnav: {e}");
+            mimnav_shared::cli::stderr_line(format_args!("mimnav: {e}"));
             return ExitCode::from(2);
         }
     };
@@ -107,27 +116,36 @@ fn main() -> ExitCode {
         Command::Snapshot(args) => snapshot::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
         Command::Install(args) => install::run(args),
-        Command::CheckConfig => {
-            println!(
-                "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",
-                if config.from_file() {
-                    config.path.display().to_string()
-                } else {
-                    "built-in defaults".into()
-                },
-                config.robot,
-                config.velodyne,
-                config.iceoryx2.global.root_path(),
-                config.iceoryx2.global.prefix
-            );
-            Ok(ExitCode::SUCCESS)
-        }
+        Command::CheckConfig => outln!(
+            "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",
+            if config.from_file() {
+                config.path.display().to_string()
+            } else {
+                "built-in defaults".into()
+            },
+            config.robot,
+            config.velodyne,
+            config.iceoryx2.global.root_path(),
+            config.iceoryx2.global.prefix
+        )
+        .map(|()| ExitCode::SUCCESS)
+        .map_err(anyhow::Error::from),
     };
     match result {
         Ok(code) => code,
+        // the reader of our output went away (`| head`): what it wanted it has; not a failure
+        Err(e) if broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("mimnav: {e:#}");
+            mimnav_shared::cli::stderr_line(format_args!("mimnav: {e:#}"));
             ExitCode::from(1)
         }
     }
+}
+
+/// Whether `e` comes from writing to a pipe whose reader has closed it.
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }

@@ -60,9 +60,10 @@ struct Tally {
 
 impl Tally {
     fn add(&mut self, h: &PointsHeader) -> String {
-        if let Some(n) = self.next_seq {
-            self.lost += h.seq.saturating_sub(n);
-        }
+        // the driver is our child and numbers its revolutions from 0: the ones overwritten before
+        // the first we read are lost too (the last one is never overwritten, so a gap is all a
+        // loss can be)
+        self.lost += h.seq.saturating_sub(self.next_seq.unwrap_or(0));
         self.next_seq = Some(h.seq + 1);
         self.revolutions += 1;
         self.points += u64::from(h.point_count);
@@ -128,8 +129,14 @@ pub fn run(
         None => config.clone(),
     };
     let node = ipc::node(&local, "mimnav-replay")?;
-    // subscribe before the driver starts, so the first revolution is not missed
-    let points = ipc::points_subscriber(&node)?;
+    // subscribe before the driver starts, so the first revolution is not missed; in our own
+    // domain we create the topic, with room for REPLAY_BUFFER revolutions: a short capture
+    // replayed --fast is not overwritten while this process waits for the CPU (issue 23 item 8).
+    // In the stack's domain (--shared) the topic keeps the stack's buffer, losses are counted.
+    let points = match domain {
+        Some(_) => ipc::points_subscriber_with_buffer(&node, ipc::REPLAY_BUFFER)?,
+        None => ipc::points_subscriber(&node)?,
+    };
 
     let mut child_args: Vec<String> = Vec::new();
     if let Some(p) = config_path {
@@ -168,11 +175,11 @@ pub fn run(
     } else {
         ProgressBar::hidden()
     };
-    println!(
+    outln!(
         "replaying {} ({total} data packets) through {}",
         args.file.display(),
         binary.display()
-    );
+    )?;
     let started = Instant::now();
     let mut driver = Service::start(&binary, &child_args)?;
     let waitset = WaitSetBuilder::new()
@@ -187,8 +194,9 @@ pub fn run(
         .map_err(|e| anyhow::anyhow!("cannot attach an interval: {e:?}"))?;
 
     let mut tally = Tally::default();
-    let mut receive_error = None;
-    let mut drain = |tally: &mut Tally| {
+    let (mut receive_error, mut output_error) = (None, None);
+    // false once stdout is closed
+    let mut drain = |tally: &mut Tally| -> bool {
         loop {
             match points.receive() {
                 Ok(Some(sample)) => {
@@ -200,8 +208,12 @@ pub fn run(
                             (h.first_packet_seq + u64::from(h.packet_count)) % (total + 1),
                         );
                     }
-                    if !args.quiet {
-                        bar.suspend(|| println!("{line}"));
+                    if !args.quiet
+                        && output_error.is_none()
+                        && let Err(e) = bar.suspend(|| outln!("{line}"))
+                    {
+                        // stdout closed (`| head`): stop here, the driver is stopped below
+                        output_error = Some(e);
                     }
                 }
                 Ok(None) => break,
@@ -211,10 +223,13 @@ pub fn run(
                 }
             }
         }
+        output_error.is_none()
     };
     let run = ipc::run_waitset(&waitset, |_id| {
         let heard = points.heard();
-        drain(&mut tally);
+        if !drain(&mut tally) {
+            return CallbackProgression::Stop;
+        }
         if heard.end_of_stream {
             tally.end_of_stream = true;
             return CallbackProgression::Stop;
@@ -232,6 +247,9 @@ pub fn run(
     );
     let status = driver.stop(Duration::from_secs(3));
     let elapsed = started.elapsed().as_secs_f64();
+    if let Some(e) = output_error {
+        return Err(e.into());
+    }
     if let Some(e) = receive_error {
         bail!("{e}");
     }
@@ -245,12 +263,15 @@ pub fn run(
         }
         _ => String::new(),
     };
-    println!(
+    outln!(
         "{} revolutions, {} points, {} data packets in {elapsed:.2} s{sensor_span}; {} revolutions lost",
-        tally.revolutions, tally.points, tally.packets, tally.lost
-    );
+        tally.revolutions,
+        tally.points,
+        tally.packets,
+        tally.lost
+    )?;
     if interrupted {
-        eprintln!("mimnav: replay interrupted");
+        mimnav_shared::cli::stderr_line(format_args!("mimnav: replay interrupted"));
         return Ok(ExitCode::from(130));
     }
     if !tally.end_of_stream {
@@ -288,5 +309,19 @@ mod tests {
         assert!(line.contains("both 100.0%"), "{line}");
         t.add(&h(4, 1_400_000_000));
         assert_eq!((t.revolutions, t.lost, t.points), (3, 2, 30));
+    }
+
+    /// Issue 23 item 8: the revolutions overwritten before the first one read were not counted
+    /// ("2 revolutions … 0 revolutions lost" of 8).
+    #[test]
+    fn lost_revolutions_before_the_first_one_read_are_counted() {
+        let mut t = Tally::default();
+        let h = |seq| PointsHeader {
+            seq,
+            ..PointsHeader::default()
+        };
+        t.add(&h(6));
+        t.add(&h(7));
+        assert_eq!((t.revolutions, t.lost), (2, 6));
     }
 }

@@ -174,14 +174,14 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
         args.worlds.clone()
     };
     let seed = args.seed.unwrap_or(config.sim.seed);
-    println!(
+    outln!(
         "cells within {} m, one cell of tolerance; precision recall F-score per class (– where the class is not in the world)\n",
         args.range
-    );
-    println!(
+    )?;
+    outln!(
         "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | solid, obstacles hidden in grass left out | revolutions | route | mapper µs/rev |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    )?;
+    outln!("|---|---|---|---|---|---|---|---|---|")?;
     for path in &worlds {
         let s = score_world(config, path, seed, args.range, args.warmup)?;
         let outcome = match s.outcome {
@@ -189,7 +189,7 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
             Outcome::Contact(i) => format!("contact with object {i}"),
             Outcome::Timeout => "timeout".to_string(),
         };
-        println!(
+        outln!(
             "| {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
             s.name,
             cell(&s.total.solid),
@@ -204,7 +204,7 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
             s.revolutions,
             outcome,
             s.mapper_us
-        );
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

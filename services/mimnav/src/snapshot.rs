@@ -116,7 +116,7 @@ pub fn run(config: &Config, args: &SnapshotArgs) -> Result<ExitCode> {
         render_map(grid, &classes, &brightest(&layer_values, &header), &marks)
     };
     write_png(&args.out, &img)?;
-    println!(
+    outln!(
         "{}: map {} of revolution {} ({} × {} cells of {} m{}), {} × {} px",
         args.out.display(),
         header.seq,
@@ -131,6 +131,6 @@ pub fn run(config: &Config, args: &SnapshotArgs) -> Result<ExitCode> {
         },
         img.width,
         img.height
-    );
+    )?;
     Ok(ExitCode::SUCCESS)
 }

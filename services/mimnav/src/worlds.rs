@@ -203,7 +203,7 @@ pub fn run(config: &Config, args: &WorldsArgs) -> Result<ExitCode> {
     match &args.command {
         WorldsCommand::Families => {
             for f in Family::ALL {
-                println!("{:<18} {}", f.name(), f.describe());
+                outln!("{:<18} {}", f.name(), f.describe())?;
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -211,7 +211,7 @@ pub fn run(config: &Config, args: &WorldsArgs) -> Result<ExitCode> {
             let worlds = set.generate()?;
             std::fs::create_dir_all(out)
                 .with_context(|| format!("cannot create {}", out.display()))?;
-            println!("for {}:", robot_label(config));
+            outln!("for {}:", robot_label(config))?;
             for w in &worlds {
                 let Some(g) = &w.generated else {
                     bail!("{}: generated without its [generated] record", w.name)
@@ -224,9 +224,9 @@ pub fn run(config: &Config, args: &WorldsArgs) -> Result<ExitCode> {
                 std::fs::write(&path, text)
                     .with_context(|| format!("cannot write {}", path.display()))?;
                 let r = passable(config, &w.compile());
-                println!("{}: {}; {}", path.display(), verdict(&r), w.description);
+                outln!("{}: {}; {}", path.display(), verdict(&r), w.description)?;
             }
-            println!("{} worlds written to {}", worlds.len(), out.display());
+            outln!("{} worlds written to {}", worlds.len(), out.display())?;
             Ok(ExitCode::SUCCESS)
         }
         WorldsCommand::Check { paths } => {
@@ -238,7 +238,7 @@ pub fn run(config: &Config, args: &WorldsArgs) -> Result<ExitCode> {
                     files.push(p.clone());
                 }
             }
-            println!("for {}:", robot_label(config));
+            outln!("for {}:", robot_label(config))?;
             let mut bad = 0;
             for f in &files {
                 let w = WorldFile::load(f)?;
@@ -249,11 +249,11 @@ pub fn run(config: &Config, args: &WorldsArgs) -> Result<ExitCode> {
                             || "hand-made".to_string(),
                             |g| format!("{} seed {} index {}", g.family, g.seed, g.index),
                         );
-                        println!("{}: well-formed, {}; {from}", f.display(), verdict(&r));
+                        outln!("{}: well-formed, {}; {from}", f.display(), verdict(&r))?;
                     }
                     Err(e) => {
                         bad += 1;
-                        println!("{}: NOT well-formed: {e}", f.display());
+                        outln!("{}: NOT well-formed: {e}", f.display())?;
                     }
                 }
             }

@@ -56,6 +56,17 @@ pub struct PlannerConfig {
     pub route_cost_weight: f64,
     /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
     pub use_foliage: bool,
+    /// Stop with the `blocked` status (and the `no route` flag) when the map holds no route to
+    /// the goal for the robot's body (false: drive on by the straight-line distance, as the
+    /// paper's DWA does).
+    pub stop_without_route: bool,
+    /// Top speed with glass at the body's edge, m/s: near glass the planner drives no faster
+    /// than this, rising to the robot's top speed at `glass_slow_within_m` (a pane is seen only
+    /// where a beam meets it squarely, so its unseen parts appear late).
+    pub glass_slow_mps: f64,
+    /// Distance from the body (its enclosing circle) to the nearest glass cell ahead at which
+    /// the speed limit near glass ends, m (0: no limit).
+    pub glass_slow_within_m: f64,
     /// A foliage verdict older than this is ignored, s.
     pub foliage_max_age_s: f64,
     /// A map older than this is stale: zero velocity, s.
@@ -85,6 +96,9 @@ impl Default for PlannerConfig {
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             use_foliage: true,
+            stop_without_route: true,
+            glass_slow_mps: 0.2,
+            glass_slow_within_m: 1.0,
             foliage_max_age_s: 0.3,
             map_max_age_s: 0.15,
             odom_max_age_s: 0.5,
@@ -135,6 +149,13 @@ impl PlannerConfig {
             self.route_cost_weight,
             0.0,
             100.0,
+        );
+        r.check("planner.glass_slow_mps", self.glass_slow_mps, 0.01, 10.0);
+        r.check(
+            "planner.glass_slow_within_m",
+            self.glass_slow_within_m,
+            0.0,
+            10.0,
         );
         r.check(
             "planner.foliage_max_age_s",

@@ -37,6 +37,16 @@ pub enum DwaOutcome {
     },
     /// No sampled trajectory is feasible: stop.
     Blocked,
+    /// The map holds no route to the goal from where the robot stands, for its body and
+    /// margin (see [`crate::route`]): stop rather than push against what closes the way.
+    NoRoute,
+}
+
+impl DwaOutcome {
+    /// True for the outcomes that command a stop.
+    pub fn is_stop(&self) -> bool {
+        !matches!(self, DwaOutcome::Drive { .. })
+    }
 }
 
 /// Searches the dynamic window from the current velocity (v0, ω0) towards `goal` (robot frame,
@@ -55,8 +65,45 @@ pub fn plan(
     goal: (f64, f64),
     route: Option<&Route>,
 ) -> DwaOutcome {
+    plan_capped(
+        p,
+        grid,
+        cost,
+        clear,
+        (v0, omega0),
+        f64::INFINITY,
+        goal,
+        route,
+    )
+}
+
+/// [`plan`] with the speeds sampled no higher than `speed_cap` (m/s; the window still starts
+/// from the current speed, so a robot faster than the cap slows at its deceleration limit).
+/// With `planner.stop_without_route` set, a `route` that knows no way from the robot's place
+/// to the goal is [`DwaOutcome::NoRoute`].
+#[allow(clippy::too_many_arguments)]
+pub fn plan_capped(
+    p: &PlannerParams,
+    grid: GridSpec,
+    cost: &[u8],
+    clear: &Clearance,
+    (v0, omega0): (f64, f64),
+    speed_cap: f64,
+    goal: (f64, f64),
+    route: Option<&Route>,
+) -> DwaOutcome {
     let (robot, pl) = (&p.robot, &p.planner);
-    let route = route.filter(|r| r.value(0.0, 0.0).is_finite());
+    let routed = route.filter(|r| r.value(0.0, 0.0).is_finite());
+    let mut speed_cap = speed_cap;
+    if route.is_some() && routed.is_none() {
+        if pl.stop_without_route {
+            return DwaOutcome::NoRoute;
+        }
+        // the map closes every way: drive on by the straight line (the paper's DWA), no faster
+        // than beside glass — the way is open only if the map is wrong
+        speed_cap = speed_cap.min(pl.glass_slow_mps);
+    }
+    let route = routed;
     let to_go = |x: f64, y: f64| match route {
         Some(r) => f64::from(r.value(x as f32, y as f32)),
         None => (goal.0 - x).hypot(goal.1 - y),
@@ -64,7 +111,10 @@ pub fn plan(
     let (max_v, max_omega) = (robot.max_linear_mps, robot.max_angular_rps);
     let (max_accel, max_alpha) = (robot.max_linear_accel, robot.max_angular_accel);
     let v_lo = (v0 - max_accel * pl.window_s).max(0.0);
-    let v_hi = (v0 + max_accel * pl.window_s).min(max_v);
+    let v_hi = (v0 + max_accel * pl.window_s)
+        .min(max_v)
+        .min(speed_cap)
+        .max(v_lo);
     let w_lo = (omega0 - max_alpha * pl.window_s).max(-max_omega);
     let w_hi = (omega0 + max_alpha * pl.window_s).min(max_omega);
     let dt_s = pl.dt_s;
@@ -290,7 +340,7 @@ mod tests {
                 cell_class::FREE
             }
         });
-        assert_eq!(run(&classes, grid, 0.5, (3.0, 0.0)), DwaOutcome::Blocked);
+        assert!(run(&classes, grid, 0.5, (3.0, 0.0)).is_stop());
     }
 
     #[test]
@@ -302,7 +352,7 @@ mod tests {
                 cell_class::FREE
             }
         });
-        assert_eq!(run(&classes, grid, 0.0, (-3.0, 0.0)), DwaOutcome::Blocked);
+        assert!(run(&classes, grid, 0.0, (-3.0, 0.0)).is_stop());
     }
 
     #[test]
@@ -320,7 +370,7 @@ mod tests {
             DwaOutcome::Drive { v, omega, .. } => {
                 assert!(v < 0.05 || omega.abs() > 0.5, "{v} {omega}")
             }
-            DwaOutcome::Blocked => {}
+            DwaOutcome::Blocked | DwaOutcome::NoRoute => {}
         }
         // whatever it chose, its trajectory kept its distance: check the straight one is refused
         let mut clear = Clearance::default();
@@ -331,7 +381,7 @@ mod tests {
         straight.robot.max_angular_rps = 0.0;
         match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
-            DwaOutcome::Blocked => {}
+            DwaOutcome::Blocked | DwaOutcome::NoRoute => {}
         }
     }
 

@@ -145,7 +145,17 @@ impl Planner {
         } else {
             None
         };
-        dwa::plan(p, grid, &self.cost, &self.clear, v0, omega0, goal, route)
+        let cap = glass_speed_cap(p, classes, grid);
+        dwa::plan_capped(
+            p,
+            grid,
+            &self.cost,
+            &self.clear,
+            (v0, omega0),
+            cap,
+            goal,
+            route,
+        )
     }
 
     /// The planning cost of the last map (eq. 11), 0–255 per cell.
@@ -157,6 +167,82 @@ impl Planner {
     pub fn route(&self) -> &Route {
         &self.route
     }
+}
+
+/// The top speed near glass (`planner.glass_slow_mps` with glass at the body's edge, rising
+/// linearly to the robot's top speed `planner.glass_slow_within_m` away from it), from the
+/// nearest glass cell — or post standing alone, which frames unseen panes — ahead of the robot's
+/// centre (x > 0 in the map's robot frame; glass behind it is not driven into). Infinite with no
+/// glass that near, or with the limit off.
+///
+/// Issue 22, item 3: a pane returns light only where a beam meets it squarely, so the parts of
+/// a pane the robot has not faced appear in the map late — a door's far edge, the rest of a
+/// pane past a post. Slower near the glass already seen, the robot stops within what it sees
+/// later, and the point where its beams meet the pane squarely slides along the pane more
+/// slowly, so more of it is seen per metre driven.
+pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64 {
+    let (slow, within) = (p.planner.glass_slow_mps, p.planner.glass_slow_within_m);
+    let top = p.robot.max_linear_mps;
+    if within <= 0.0 || slow >= top || classes.len() != grid.len() {
+        return f64::INFINITY;
+    }
+    let body = p.robot.body();
+    let reach = (body.enclosing_radius_m() + within) as f32 + grid.cell_m;
+    let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(0.0, -reach), grid.cell_of(reach, reach))
+    else {
+        return f64::INFINITY;
+    };
+    let mut nearest = f64::INFINITY;
+    for r in r0.min(r1)..=r0.max(r1) {
+        for c in c0.min(c1)..=c0.max(c1) {
+            let class = classes[grid.index(r, c)];
+            if class != cell_class::GLASS && class != cell_class::SOLID {
+                continue;
+            }
+            let (x, y) = grid.center_of(r, c);
+            if x <= 0.0 {
+                continue;
+            }
+            let d = body.signed_distance(f64::from(x), f64::from(y));
+            if d < nearest && (class == cell_class::GLASS || is_post(classes, grid, r, c)) {
+                nearest = d;
+            }
+        }
+    }
+    if nearest >= within {
+        return f64::INFINITY;
+    }
+    slow + (top - slow) * (nearest / within).clamp(0.0, 1.0)
+}
+
+/// Half the width of the largest solid the speed limit near glass takes for a post between
+/// panes, m: a mullion or a frame's joint is 5–15 cm, a structural pillar 30 cm or more.
+const POST_HALF_M: f32 = 0.15;
+
+/// True when the solid cell (r, c) is part of a post standing alone — nothing solid in the ring
+/// from [`POST_HALF_M`] to twice that around it. A post with nothing seen between it and its
+/// neighbours is how a framed glass partition looks from most places (the panes return light
+/// only where a beam meets them squarely): "an opening between solids" of issue 22, item 3.
+fn is_post(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
+    let inner = (POST_HALF_M / grid.cell_m).ceil() as isize;
+    let outer = 2 * inner;
+    let n = grid.cells as isize;
+    for dr in -outer..=outer {
+        for dc in -outer..=outer {
+            if dr.abs().max(dc.abs()) <= inner {
+                continue;
+            }
+            let (rr, cc) = (r as isize + dr, c as isize + dc);
+            if rr < 0 || cc < 0 || rr >= n || cc >= n {
+                return false;
+            }
+            let class = classes[grid.index(rr as usize, cc as usize)];
+            if class == cell_class::SOLID {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// `classes` with every solid or glass cell under `body` (at the map's centre, heading along x)
@@ -235,7 +321,7 @@ mod tests {
         let mut planner = Planner::new(PlannerParams::default());
         let straight = |o: DwaOutcome| match o {
             DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
-            DwaOutcome::Blocked => false,
+            DwaOutcome::Blocked | DwaOutcome::NoRoute => false,
         };
         assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
         let rock: Vec<(f32, f32)> = (-6..=6)
@@ -254,6 +340,92 @@ mod tests {
             0.0,
             (4.0, 0.0)
         )));
+    }
+
+    #[test]
+    fn near_glass_ahead_the_planner_slows_and_glass_behind_does_not_slow_it() {
+        // a pane along y = 0.6 m beside the way ahead (not across it)
+        let beside = |from: f32| {
+            crate::clearance::tests::map(move |x, y| {
+                if (y - 0.6).abs() < 0.03 && x > from && x < from + 3.0 {
+                    cell_class::GLASS
+                } else {
+                    cell_class::FREE
+                }
+            })
+        };
+        let speed = |p: PlannerParams, (grid, classes): (GridSpec, Vec<u8>)| match Planner::new(p)
+            .plan(&classes, grid, 0.5, 0.0, (4.0, 0.0))
+        {
+            DwaOutcome::Drive { v, .. } => v,
+            o => panic!("{o:?}"),
+        };
+        let p = PlannerParams::default();
+        // 0.4 m from the body's edge: 0.2 + (0.5 − 0.2) · 0.4 / 1.0 m/s
+        let cap = glass_speed_cap(&p, &beside(0.0).1, beside(0.0).0);
+        assert!((cap - 0.32).abs() < 0.03, "{cap}");
+        let slowed = speed(p.clone(), beside(0.0));
+        assert!(slowed <= cap + 1e-9, "{slowed} > {cap}");
+        let mut off = p.clone();
+        off.planner.glass_slow_within_m = 0.0;
+        assert!(speed(off, beside(0.0)) > 0.45, "no limit when it is off");
+        // the same pane behind the robot
+        assert_eq!(
+            glass_speed_cap(&p, &beside(-3.5).1, beside(-3.5).0),
+            f64::INFINITY
+        );
+        assert!(speed(p, beside(-3.5)) > 0.45);
+    }
+
+    #[test]
+    fn a_post_standing_alone_slows_like_glass_and_a_wall_does_not() {
+        let p = PlannerParams::default();
+        // a 0.15 m post 0.6 m ahead and 0.5 m to the left: a framed pane's joint
+        let (grid, post) = crate::clearance::tests::map(|x, y| {
+            if (x - 0.6).abs() < 0.075 && (y - 0.5).abs() < 0.075 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert!(glass_speed_cap(&p, &post, grid) < 0.4);
+        // a wall in the same place, running on ahead: no limit
+        let (grid, wall) = crate::clearance::tests::map(|x, y| {
+            if x > 0.5 && (y - 0.5).abs() < 0.075 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(glass_speed_cap(&p, &wall, grid), f64::INFINITY);
+    }
+
+    #[test]
+    fn no_route_to_the_goal_stops_with_no_route() {
+        // a wall all round the robot, 1.5 m away: it can move, but never reach the goal
+        let (grid, classes) = crate::clearance::tests::map(|x, y| {
+            if (x.hypot(y) - 1.5).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let mut p = PlannerParams::default();
+        assert_eq!(
+            Planner::new(p.clone()).plan(&classes, grid, 0.0, 0.0, (3.0, 0.0)),
+            DwaOutcome::NoRoute
+        );
+        // a goal inside the wall has a route
+        assert!(matches!(
+            Planner::new(p.clone()).plan(&classes, grid, 0.0, 0.0, (1.0, 0.0)),
+            DwaOutcome::Drive { .. }
+        ));
+        // without the rule it drives on towards the wall as the paper's DWA does, slowly
+        p.planner.stop_without_route = false;
+        match Planner::new(p.clone()).plan(&classes, grid, 0.3, 0.0, (3.0, 0.0)) {
+            DwaOutcome::Drive { v, .. } => assert!(v <= p.planner.glass_slow_mps + 1e-9, "{v}"),
+            o => panic!("{o:?}"),
+        }
     }
 
     #[test]

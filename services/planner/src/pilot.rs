@@ -95,6 +95,9 @@ impl Decision {
         let what = match self.status {
             command_status::DRIVING => "driving".to_string(),
             command_status::GOAL_REACHED => "goal reached: zero velocity".to_string(),
+            command_status::BLOCKED if self.flags & command_flags::NO_ROUTE != 0 => {
+                "blocked (no route to the goal on the map): zero velocity".to_string()
+            }
             command_status::BLOCKED => "blocked (no feasible motion): zero velocity".to_string(),
             command_status::NO_GOAL => "no goal: zero velocity".to_string(),
             command_status::STALE_INPUT => format!(
@@ -320,6 +323,12 @@ impl Pilot {
                 source_stamp_ns: header.stamp_ns,
                 source_seq: header.source_seq,
             },
+            DwaOutcome::NoRoute => Decision::stop(
+                command_status::BLOCKED,
+                flags | command_flags::NO_ROUTE,
+                None,
+                Some(header),
+            ),
             _ => Decision::stop(command_status::BLOCKED, flags, None, Some(header)),
         }
     }

@@ -3,6 +3,7 @@
 //! sockets, no files, no clocks: the service's `main.rs` takes datagrams from a socket or a
 //! capture, hands each to [`Driver::on_datagram`] with its times, and publishes what comes back.
 
+use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use mimnav_shared::faults::Faults;
@@ -10,6 +11,9 @@ use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
 
 use crate::packet::{POSITION_PACKET_LEN, PositionPacket, PpsStatus};
 use crate::revolution::{Assembler, AssemblerConfig, Revolution};
+
+/// Least time between two log lines about a change of the PPS status.
+const PPS_LOG_INTERVAL: Duration = Duration::from_secs(5);
 
 /// What a datagram is, by its port and size.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -40,6 +44,10 @@ pub struct Stats {
     pub position_packets: u64,
     /// Datagrams in a capture that were neither (other ports and sizes).
     pub other_traffic: u64,
+    /// Datagrams dropped because they came from a sender other than `velodyne.allowed_source`.
+    pub foreign: u64,
+    /// The sender of the last of them.
+    pub last_foreign: Option<SocketAddr>,
     /// Revolutions finished.
     pub revolutions: u64,
     /// Points in them.
@@ -56,6 +64,7 @@ pub struct Driver {
     assembler: Assembler,
     stats: Stats,
     pps: Option<PpsStatus>,
+    pps_logged: Option<Instant>,
     accept_0x21_logged: bool,
     data_port: u16,
     position_port: u16,
@@ -69,6 +78,7 @@ impl Driver {
             assembler: Assembler::new(config),
             stats: Stats::default(),
             pps: None,
+            pps_logged: None,
             accept_0x21_logged: false,
             data_port,
             position_port,
@@ -143,7 +153,12 @@ impl Driver {
         match PositionPacket::parse(bytes) {
             Ok(p) => {
                 self.stats.position_packets += 1;
-                if self.pps != Some(p.pps) {
+                // a change of the PPS status is news; a sensor flapping between two is logged
+                // once per interval
+                let quiet = (self.pps_logged)
+                    .is_none_or(|t| now.saturating_duration_since(t) >= PPS_LOG_INTERVAL);
+                if self.pps != Some(p.pps) && quiet {
+                    self.pps_logged = Some(now);
                     tracing::info!(
                         pps = ?p.pps,
                         gprmc_unix_s = ?p.gprmc_unix_s(),
@@ -154,14 +169,22 @@ impl Driver {
                     self.pps = Some(p.pps);
                 }
             }
-            Err(e) => {
-                faults.record(
-                    "bad_position_packet",
-                    now,
-                    format_args!("{}: {e}", source()),
-                );
-            }
+            // garbage on the position port: counted by kind, logged at a limited rate
+            Err(e) => _ = faults.record(e.kind(), now, format_args!("{}: {e}", source())),
         }
+    }
+
+    /// A datagram from `from`, a sender other than `velodyne.allowed_source`, was dropped:
+    /// counted (fault kind `foreign_sender`, logged at a limited rate) and remembered for the
+    /// periodic statistics and the status line.
+    pub fn on_foreign(&mut self, from: SocketAddr, now: Instant, faults: &mut Faults) {
+        self.stats.foreign += 1;
+        self.stats.last_foreign = Some(from);
+        faults.record(
+            "foreign_sender",
+            now,
+            format_args!("datagram from {from} dropped: not velodyne.allowed_source"),
+        );
     }
 
     /// `bytes` as a `lidar/packets` sample, when it is a data packet of the right size.
@@ -208,11 +231,13 @@ impl Driver {
         let s = &mut self.stats;
         let secs = dt.as_secs_f64().max(1e-9);
         let revs_per_s = (s.revolutions - s.revolutions_at_report) as f64 / secs;
+        let foreign = foreign_text(s);
         tracing::info!(
             packets = s.data_packets,
             revolutions = s.revolutions,
+            foreign = s.foreign,
             "{revs_per_s:.1} revolutions/s, {:.0} points/s, {:.0} packets/s; position packets {}; \
-             other traffic {}; faults: {}",
+             other traffic {}{foreign}; faults: {}",
             (s.points - s.points_at_report) as f64 / secs,
             (s.data_packets - s.packets_at_report) as f64 / secs,
             s.position_packets,
@@ -224,7 +249,7 @@ impl Driver {
         s.points_at_report = s.points;
         s.packets_at_report = s.data_packets;
         Some(format!(
-            "{revs_per_s:.1} revolutions/s, {} revolutions, {} faults",
+            "{revs_per_s:.1} revolutions/s, {} revolutions, {} faults{foreign}",
             s.revolutions,
             faults.total()
         ))
@@ -239,9 +264,21 @@ impl Driver {
             data_packets = s.data_packets,
             position_packets = s.position_packets,
             other_traffic = s.other_traffic,
-            "{what}; faults: {}",
+            foreign = s.foreign,
+            "{what}{}; faults: {}",
+            foreign_text(s),
             faults.summary()
         );
+    }
+}
+
+/// `, N datagrams from foreign senders (last ADDR)`, or nothing when there were none.
+fn foreign_text(s: &Stats) -> String {
+    match s.last_foreign {
+        Some(a) if s.foreign > 0 => {
+            format!(", {} datagrams from foreign senders (last {a})", s.foreign)
+        }
+        _ => String::new(),
     }
 }
 
@@ -299,5 +336,33 @@ mod tests {
         assert_eq!(d.stats().other_traffic, 1);
         assert_eq!(d.stats().data_packets, 0);
         assert!(d.finish().is_none());
+    }
+
+    /// Issue 23 item 6: datagrams from a sender other than `allowed_source` were reported only
+    /// at exit.
+    #[test]
+    fn foreign_senders_in_periodic_stats_and_status() {
+        let mut d = driver();
+        let mut faults = Faults::new(Duration::from_secs(60));
+        let t0 = Instant::now();
+        let every = Duration::from_secs(1);
+        assert!(
+            d.report_if_due(t0, every, &faults).is_none(),
+            "first call starts the clock"
+        );
+        let t1 = t0 + every;
+        let quiet = d.report_if_due(t1, every, &faults).expect("due");
+        assert!(!quiet.contains("foreign"), "{quiet}");
+        for port in [4000, 4001, 4002] {
+            d.on_foreign(SocketAddr::from(([10, 0, 0, 9], port)), t1, &mut faults);
+        }
+        let status = d.report_if_due(t1 + every, every, &faults).expect("due");
+        assert!(
+            status.contains("3 datagrams from foreign senders (last 10.0.0.9:4002)"),
+            "{status}"
+        );
+        assert!(status.contains("3 faults"), "{status}");
+        assert_eq!(faults.count("foreign_sender"), 3);
+        assert_eq!(d.stats().foreign, 3);
     }
 }

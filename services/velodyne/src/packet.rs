@@ -259,37 +259,121 @@ impl From<u8> for PpsStatus {
     }
 }
 
+/// Offset of the NMEA sentence in a position packet.
+pub const NMEA_OFFSET: usize = 206;
+/// Room for the NMEA sentence: bytes 206–333 (128 bytes; the manual's older revisions give 72,
+/// the rest of which is unused and zero).
+pub const NMEA_LEN: usize = 128;
+
+/// Why a 512-byte datagram is not a position packet. Each is counted as a fault of its
+/// [`kind`](PositionError::kind) and skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PositionError {
+    /// Not 512 bytes.
+    WrongLength {
+        /// Bytes received.
+        len: usize,
+    },
+    /// The PPS status (byte 202) is none of the four the manual defines (0–3).
+    BadPps(u8),
+    /// The NMEA field (bytes 206–333) is neither empty (all zero: no GPS) nor a sentence
+    /// starting with `$` and made of printable ASCII up to its `*`.
+    NotNmea {
+        /// Offset in the packet of the first byte that does not fit.
+        offset: usize,
+    },
+    /// A well-formed sentence, but not an `RMC` one (the sensor forwards `$GPRMC` / `$GNRMC`).
+    NotRmc,
+    /// The sentence has no `*hh` checksum, or one that is not two hex digits.
+    NoChecksum,
+    /// The checksum (XOR of the bytes between `$` and `*`) does not match.
+    BadChecksum {
+        /// The XOR of the sentence's bytes.
+        computed: u8,
+        /// The value after `*`.
+        given: u8,
+    },
+}
+
+impl PositionError {
+    /// Short, stable name of the kind of fault, used as the counter key in statistics and logs.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            PositionError::WrongLength { .. } => "position_wrong_length",
+            PositionError::BadPps(_) => "position_bad_pps",
+            PositionError::NotNmea { .. } | PositionError::NotRmc => "position_bad_nmea",
+            PositionError::NoChecksum | PositionError::BadChecksum { .. } => {
+                "position_bad_checksum"
+            }
+        }
+    }
+}
+
+impl fmt::Display for PositionError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PositionError::WrongLength { len } => write!(
+                f,
+                "position packet of {len} bytes, expected {POSITION_PACKET_LEN}"
+            ),
+            PositionError::BadPps(b) => {
+                write!(f, "position packet with PPS status {b}, expected 0 to 3")
+            }
+            PositionError::NotNmea { offset } => write!(
+                f,
+                "position packet without an NMEA sentence at byte {NMEA_OFFSET} (byte {offset} \
+                 does not fit)"
+            ),
+            PositionError::NotRmc => write!(f, "position packet whose NMEA sentence is not RMC"),
+            PositionError::NoChecksum => {
+                write!(f, "position packet whose NMEA sentence has no *hh checksum")
+            }
+            PositionError::BadChecksum { computed, given } => write!(
+                f,
+                "position packet whose NMEA checksum is {given:02X}, the sentence gives \
+                 {computed:02X}"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for PositionError {}
+
 /// A decoded 512-byte position packet (port 8308).
+///
+/// Layout (VLP-16 manual, "Position Packet"): bytes 0–197 unused or temperatures, 198–201 the
+/// timestamp (µs past the hour, u32 LE), 202 the PPS status, 203–205 status bytes, 206–333 the
+/// last NMEA `$GPRMC` sentence the GPS sent (`*hh` checksum, CR LF, NUL padding; all zero without
+/// a GPS), 334–511 unused.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PositionPacket {
     /// Sensor time, µs past the top of the hour.
     pub timestamp_us: u32,
     /// PPS status.
     pub pps: PpsStatus,
-    /// The NMEA sentence (normally `$GPRMC,…`), without the NUL padding; empty when the GPS
-    /// sends none. Non-ASCII bytes are replaced.
+    /// The NMEA sentence (`$GPRMC,…*hh`), without CR LF and padding; empty when the GPS sends
+    /// none.
     pub nmea: String,
 }
 
 impl PositionPacket {
-    /// Decodes a position packet; only the length is checked, the contents are free-form.
-    pub fn parse(bytes: &[u8]) -> Result<Self, DecodeError> {
-        if bytes.len() != POSITION_PACKET_LEN {
-            return Err(DecodeError::WrongLength { len: bytes.len() });
-        }
+    /// Decodes and checks a position packet: its length, a PPS status the manual defines, and
+    /// either an empty NMEA field or one RMC sentence of printable ASCII with a correct
+    /// checksum, followed only by CR, LF and NULs.
+    pub fn parse(bytes: &[u8]) -> Result<Self, PositionError> {
+        let bytes: &[u8; POSITION_PACKET_LEN] = bytes
+            .try_into()
+            .map_err(|_| PositionError::WrongLength { len: bytes.len() })?;
         let timestamp_us = u32::from_le_bytes([bytes[198], bytes[199], bytes[200], bytes[201]]);
-        let sentence = &bytes[206..];
-        let end = sentence
-            .iter()
-            .position(|&b| b == 0)
-            .unwrap_or(sentence.len());
-        let nmea = String::from_utf8_lossy(&sentence[..end])
-            .trim_end()
-            .to_string();
+        if bytes[202] > 3 {
+            return Err(PositionError::BadPps(bytes[202]));
+        }
+        let field = &bytes[NMEA_OFFSET..NMEA_OFFSET + NMEA_LEN];
+        let nmea = check_nmea(field)?;
         Ok(PositionPacket {
             timestamp_us,
             pps: PpsStatus::from(bytes[202]),
-            nmea,
+            nmea: nmea.to_string(),
         })
     }
 
@@ -298,6 +382,60 @@ impl PositionPacket {
     pub fn gprmc_unix_s(&self) -> Option<f64> {
         parse_gprmc(&self.nmea)
     }
+}
+
+/// The sentence in a position packet's NMEA field (`""` when the field is all zero), checked.
+fn check_nmea(field: &[u8]) -> Result<&str, PositionError> {
+    let at = |i: usize| PositionError::NotNmea {
+        offset: NMEA_OFFSET + i,
+    };
+    if field.iter().all(|&b| b == 0) {
+        return Ok("");
+    }
+    if field[0] != b'$' {
+        return Err(at(0));
+    }
+    let star = (1..field.len())
+        .find(|&i| !(0x20..0x7f).contains(&field[i]) || field[i] == b'*')
+        .ok_or(PositionError::NoChecksum)?;
+    if field[star] != b'*' {
+        return Err(if matches!(field[star], 0 | b'\r' | b'\n') {
+            PositionError::NoChecksum
+        } else {
+            at(star)
+        });
+    }
+    let hex = |i: usize| {
+        field
+            .get(i)
+            .and_then(|&b| char::from(b).to_digit(16))
+            .map(|d| d as u8)
+    };
+    let given = match (hex(star + 1), hex(star + 2)) {
+        (Some(h), Some(l)) => (h << 4) | l,
+        _ => return Err(PositionError::NoChecksum),
+    };
+    // after the checksum: CR LF (either may be missing), then NUL padding only
+    let mut end = star + 3;
+    for want in [b'\r', b'\n'] {
+        if field.get(end) == Some(&want) {
+            end += 1;
+        }
+    }
+    if let Some(i) = (end..field.len()).find(|&i| field[i] != 0) {
+        return Err(at(i));
+    }
+    let computed = field[1..star].iter().fold(0u8, |a, b| a ^ b);
+    if computed != given {
+        return Err(PositionError::BadChecksum { computed, given });
+    }
+    // printable ASCII throughout, so this cannot fail
+    let sentence = std::str::from_utf8(&field[..star + 3]).map_err(|_| at(0))?;
+    let talker = sentence[1..star].split(',').next().unwrap_or("");
+    if talker.len() != 5 || !talker.ends_with("RMC") {
+        return Err(PositionError::NotRmc);
+    }
+    Ok(sentence)
 }
 
 /// Parses the time and date of a `$GPRMC` sentence with status `A` into Unix seconds.
@@ -372,13 +510,13 @@ pub fn encode_data_packet(
     p
 }
 
-/// Builds a position packet with `nmea` (truncated to fit) after the PPS status byte.
+/// Builds a position packet with `nmea` (truncated to the 128 bytes of its field) at byte 206.
 pub fn encode_position_packet(timestamp_us: u32, pps: u8, nmea: &str) -> [u8; POSITION_PACKET_LEN] {
     let mut p = [0u8; POSITION_PACKET_LEN];
     p[198..202].copy_from_slice(&timestamp_us.to_le_bytes());
     p[202] = pps;
-    let n = nmea.len().min(POSITION_PACKET_LEN - 206 - 1);
-    p[206..206 + n].copy_from_slice(&nmea.as_bytes()[..n]);
+    let n = nmea.len().min(NMEA_LEN);
+    p[NMEA_OFFSET..NMEA_OFFSET + n].copy_from_slice(&nmea.as_bytes()[..n]);
     p
 }
 
@@ -403,6 +541,85 @@ mod tests {
         assert_eq!(parse_gprmc("$GPRMC,214107,V,,,,,,,230715,,,N*00"), None);
         assert_eq!(parse_gprmc("$GPGGA,1"), None);
         assert_eq!(parse_gprmc("$GPRMC,2é4107,A,,,,,,,230715"), None);
+    }
+
+    /// Issue 23 item 5: 512-byte random datagrams on the position port were taken as position
+    /// packets (and each new "PPS status" logged at INFO).
+    #[test]
+    fn position_port_garbage_is_refused_by_nmea_checksum() {
+        let good = "$GPRMC,214107,A,3707.8060,N,12139.2696,W,000.0,000.0,230715,013.9,E,D*0A";
+        let p = PositionPacket::parse(&encode_position_packet(5, 2, good)).expect("valid");
+        assert_eq!((p.nmea.as_str(), p.pps), (good, PpsStatus::Locked));
+        let crlf = format!("{good}\r\n");
+        assert_eq!(
+            PositionPacket::parse(&encode_position_packet(5, 2, &crlf)).map(|p| p.nmea),
+            Ok(good.to_string())
+        );
+        // no GPS: the field is all zero, PPS absent
+        let none = PositionPacket::parse(&encode_position_packet(5, 0, "")).expect("no GPS");
+        assert_eq!((none.nmea.as_str(), none.pps), ("", PpsStatus::Absent));
+
+        let err = |b: [u8; POSITION_PACKET_LEN]| PositionPacket::parse(&b).err();
+        assert_eq!(
+            PositionPacket::parse(&[0u8; 511]).err(),
+            Some(PositionError::WrongLength { len: 511 })
+        );
+        assert_eq!(
+            err(encode_position_packet(5, 7, good)),
+            Some(PositionError::BadPps(7))
+        );
+        // one character changed: the checksum no longer matches
+        let bent = good.replace("214107", "214108");
+        assert!(matches!(
+            err(encode_position_packet(5, 2, &bent)),
+            Some(PositionError::BadChecksum { given: 0x0A, .. })
+        ));
+        let no_sum = &good[..good.len() - 3];
+        assert_eq!(
+            err(encode_position_packet(5, 2, no_sum)),
+            Some(PositionError::NoChecksum)
+        );
+        assert_eq!(
+            err(encode_position_packet(5, 2, "GPRMC,1*00")),
+            Some(PositionError::NotNmea { offset: 206 })
+        );
+        let gga = "$GPGGA,1";
+        let gga = format!("{gga}*{:02X}", gga[1..].bytes().fold(0u8, |a, b| a ^ b));
+        assert_eq!(
+            err(encode_position_packet(5, 2, &gga)),
+            Some(PositionError::NotRmc)
+        );
+        let mut tail = encode_position_packet(5, 2, good);
+        tail[300] = b'x';
+        assert_eq!(err(tail), Some(PositionError::NotNmea { offset: 300 }));
+
+        // random datagrams (a fixed xorshift stream): none passes, every refusal has a kind
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut kinds = std::collections::BTreeMap::new();
+        for _ in 0..20_000 {
+            let mut b = [0u8; POSITION_PACKET_LEN];
+            for v in b.iter_mut() {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                *v = x as u8;
+            }
+            // give half of them a plausible PPS byte and a `$`, so the sentence checks are reached
+            if x & 1 == 0 {
+                b[202] = (x >> 8) as u8 & 3;
+                b[NMEA_OFFSET] = b'$';
+            }
+            let e = PositionPacket::parse(&b).expect_err("random bytes are no position packet");
+            *kinds.entry(e.kind()).or_insert(0u32) += 1;
+        }
+        assert!(
+            kinds.get("position_bad_pps").is_some_and(|&n| n > 5000),
+            "{kinds:?}"
+        );
+        assert!(
+            kinds.get("position_bad_nmea").is_some_and(|&n| n > 5000),
+            "{kinds:?}"
+        );
     }
 
     #[test]

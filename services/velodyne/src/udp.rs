@@ -34,6 +34,7 @@ pub struct UdpSource {
     position: Option<UdpSocket>,
     allowed_source: Option<IpAddr>,
     rejected: u64,
+    last_rejected: Option<SocketAddr>,
 }
 
 impl UdpSource {
@@ -68,6 +69,7 @@ impl UdpSource {
             position,
             allowed_source: config.allowed_source,
             rejected: 0,
+            last_rejected: None,
         };
         let granted = source.recv_buffer_bytes().unwrap_or(0);
         if granted < config.recv_buffer_bytes {
@@ -130,11 +132,21 @@ impl UdpSource {
         self.rejected
     }
 
+    /// The sender of the last datagram dropped by the source filter.
+    pub fn last_rejected(&self) -> Option<SocketAddr> {
+        self.last_rejected
+    }
+
     /// Receives the next waiting datagram into `buf`: a position packet first, else a data
     /// packet. `Ok(None)` when none is waiting. Datagrams larger than
     /// `buf` are truncated by the OS; the returned length then equals `buf.len()` and the
-    /// decoder rejects it by size.
-    pub fn recv(&mut self, buf: &mut [u8]) -> io::Result<Option<Received>> {
+    /// decoder rejects it by size. A datagram from a sender other than `allowed_source` is
+    /// dropped, counted and handed to `foreign` (its sender), so the caller can report it.
+    pub fn recv(
+        &mut self,
+        buf: &mut [u8],
+        foreign: &mut dyn FnMut(SocketAddr),
+    ) -> io::Result<Option<Received>> {
         loop {
             if let Some(pos) = &self.position {
                 match pos.recv_from(buf) {
@@ -146,6 +158,7 @@ impl UdpSource {
                                 port: Port::Position,
                             }));
                         }
+                        foreign(from);
                         continue;
                     }
                     Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
@@ -155,6 +168,7 @@ impl UdpSource {
             return match self.data.recv_from(buf) {
                 Ok((len, from)) => {
                     if !self.accepts(from) {
+                        foreign(from);
                         continue;
                     }
                     Ok(Some(Received {
@@ -179,6 +193,7 @@ impl UdpSource {
         match self.allowed_source {
             Some(a) if a != from.ip() => {
                 self.rejected += 1;
+                self.last_rejected = Some(from);
                 false
             }
             _ => true,
@@ -226,19 +241,26 @@ mod tests {
         tx.send_to(&[2u8; 512], pos_addr).expect("send");
         std::thread::sleep(std::time::Duration::from_millis(20));
         let mut buf = [0u8; 2048];
-        let a = src.recv(&mut buf).expect("recv").expect("datagram");
+        let mut foreign = Vec::new();
+        let mut on_foreign = |a| foreign.push(a);
+        let a = src.recv(&mut buf, &mut on_foreign).expect("recv");
+        let a = a.expect("datagram");
         assert_eq!((a.port, a.len), (Port::Position, 512));
-        let b = src.recv(&mut buf).expect("recv").expect("datagram");
+        let b = src.recv(&mut buf, &mut on_foreign).expect("recv");
+        let b = b.expect("datagram");
         assert_eq!((b.port, b.len), (Port::Data, 1206));
-        assert_eq!(src.recv(&mut buf).expect("recv"), None);
+        assert_eq!(src.recv(&mut buf, &mut on_foreign).expect("recv"), None);
 
         // a sender on another loopback address is dropped and counted
         let other = UdpSocket::bind("127.0.0.2:0");
         if let Ok(other) = other {
             other.send_to(&[1u8; 1206], data_addr).expect("send");
             std::thread::sleep(std::time::Duration::from_millis(20));
-            assert_eq!(src.recv(&mut buf).expect("recv"), None);
+            assert_eq!(src.recv(&mut buf, &mut on_foreign).expect("recv"), None);
             assert_eq!(src.rejected(), 1);
+            let from = other.local_addr().ok();
+            assert_eq!(src.last_rejected(), from);
+            assert_eq!(foreign, from.into_iter().collect::<Vec<_>>());
         }
     }
 }

@@ -261,3 +261,30 @@ fn position_packet_capture_gives_pps_and_gprmc_time() {
     );
     assert!(reader.next().expect("reads").is_none());
 }
+
+/// Issue 23 item 5 (the position packet is checked: PPS status, NMEA sentence, checksum): every
+/// position packet of the real captures still passes, with a GPS (GPRMC, PPS locked) and
+/// without one (an empty NMEA field).
+#[test]
+fn every_position_packet_of_the_real_captures_passes_the_checks() {
+    use mimnav_velodyne::packet::{POSITION_PACKET_LEN, PositionPacket};
+    let Some(dir) = data_dir() else { return };
+    for (name, expected, with_gps) in [
+        ("vlp16_position_packet", 1, true),
+        ("vlp16_strongest_gps_mrpt", 57, true),
+        ("vlp16_strongest_product0x21_2014", 16, false),
+    ] {
+        let mut reader = CaptureReader::open(&dir.join(format!("{name}.pcap"))).expect("open");
+        let mut n = 0;
+        while let Some(d) = reader.next().expect("reads") {
+            if d.payload.len() != POSITION_PACKET_LEN {
+                continue;
+            }
+            let p = PositionPacket::parse(d.payload)
+                .unwrap_or_else(|e| panic!("{name} byte offset {}: {e}", d.offset));
+            assert_eq!(p.gprmc_unix_s().is_some(), with_gps, "{name}: {}", p.nmea);
+            n += 1;
+        }
+        assert_eq!(n, expected, "{name}: position packets");
+    }
+}

@@ -311,7 +311,8 @@ fn gaps_and_mode_changes_cut_early() {
 
 #[test]
 fn position_packets_round_trip() {
-    let s = "$GPRMC,214107,A,3707.8060,N,12139.2696,W,000.0,000.0,230715,013.9,E,D*04";
+    // the checksum is the XOR of the bytes between `$` and `*`
+    let s = "$GPRMC,214107,A,3707.8060,N,12139.2696,W,000.0,000.0,230715,013.9,E,D*0A";
     let bytes = encode_position_packet(3_667_108_343 % 3_600_000_000, 2, s);
     let p = PositionPacket::parse(&bytes).expect("position");
     assert_eq!(p.nmea, s);

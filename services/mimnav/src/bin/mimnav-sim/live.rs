@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use mimnav_config::Config;
+use mimnav_shared::cli::stdout_line;
 use mimnav_shared::ipc::{self, Listening, ValueSubscriber};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::service::{Health, Service};
@@ -136,9 +137,10 @@ pub fn run(
         }
     }
     let summary = sim.summary(stopped, waits_timed_out);
+    // a closed stdout does not change how the run ended (issue 23 item 4)
     match json {
-        true => println!("{}", serde_json::to_string(&summary)?),
-        false => println!("{summary}"),
+        true => stdout_line(format_args!("{}", serde_json::to_string(&summary)?)),
+        false => stdout_line(format_args!("{summary}")),
     }
     tracing::info!(faults = %h.faults.summary(), "simulation ended");
     Ok(match sim.outcome() {

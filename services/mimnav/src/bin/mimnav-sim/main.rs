@@ -73,7 +73,7 @@ fn main() -> ExitCode {
         let world = match WorldFile::load(&path) {
             Ok(w) => w,
             Err(e) => {
-                eprintln!("mimnav-sim: {e}");
+                mimnav_shared::cli::stderr_line(format_args!("mimnav-sim: {e}"));
                 return Ok(ExitCode::from(2));
             }
         };
@@ -101,14 +101,15 @@ fn main() -> ExitCode {
         .map_err(anyhow::Error::from)
         .and_then(|s| w.flush().map(|()| s).map_err(anyhow::Error::from))
         .with_context(|| format!("cannot write {}", out.display()))?;
-        println!(
+        // a closed stdout does not undo the capture written (issue 23 item 4)
+        mimnav_shared::cli::stdout_line(format_args!(
             "{}: {} data packets, {} revolutions, {seconds} s of {} (seed {})",
             out.display(),
             stats.packets,
             stats.revolutions,
             world.name,
             config.sim.seed
-        );
+        ));
         Ok(ExitCode::SUCCESS)
     })
 }

@@ -57,7 +57,9 @@ use wired::Wired;
 fn main() -> ExitCode {
     service::main("mimnav-velodyne", |args: Args, config: Config| {
         if args.check_config {
-            println!("{:#?}", config.velodyne);
+            // a closed stdout is no failure of the check (issue 23 item 4)
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stdout().lock(), "{:#?}", config.velodyne);
             return Ok(ExitCode::SUCCESS);
         }
         run(&config).map(|()| ExitCode::SUCCESS)
@@ -105,7 +107,11 @@ fn run(config: &Config) -> Result<()> {
         .unwrap_or_default();
     svc.run(&mut health, &format!("listening on {addr}"), |turn, h| {
         loop {
-            match source.recv(&mut buf) {
+            // a flood can keep this loop draining for longer than the watchdog allows
+            h.sd.alive(Instant::now());
+            let driver = &mut wired.0;
+            let foreign = &mut |from| driver.on_foreign(from, turn.now, &mut h.faults);
+            match source.recv(&mut buf, foreign) {
                 Ok(Some(r)) => {
                     last_datagram = turn.now;
                     let from = || format!("datagram from {}", r.from);
@@ -128,11 +134,7 @@ fn run(config: &Config) -> Result<()> {
             "no VLP-16 datagram",
         );
     })?;
-    let rejected = source.rejected();
-    tracing::info!(
-        rejected,
-        "datagrams from other senders than velodyne.allowed_source dropped"
-    );
+    // the foreign senders' count and the last one's address are in the summary
     wired.0.log_summary("stopped", &health.faults);
     Ok(())
 }

@@ -69,8 +69,11 @@ pub fn replay(
     // READY=1 once: it resets the manager's ping clock without a WATCHDOG=1, so sending it on
     // every pass of a looped replay let the watchdog kill the driver
     h.sd.ready(&format!("replaying {}", path.display()));
-    let mut outcome = Ok(());
+    let (mut outcome, mut in_pass) = (Ok(()), 0u64);
     let stopped = loop {
+        // every turn pings when a ping is due, whatever the turn does (a pass that ends, a
+        // capture reopened for the next pass, a datagram due at once)
+        h.sd.alive(Instant::now());
         let next = match replay.next(Instant::now()) {
             Ok(next) => next,
             Err(e) => {
@@ -80,6 +83,7 @@ pub fn replay(
         };
         match next {
             Next::Datagram(d, due) => {
+                in_pass += 1;
                 if !svc.sleep_until(h, due) {
                     break true;
                 }
@@ -90,8 +94,19 @@ pub fn replay(
                     h.sd.status(&status);
                 }
             }
+            // a looped capture without a single datagram would spin here for ever
+            Next::PassEnded if in_pass == 0 => {
+                outcome = Err(anyhow::anyhow!(
+                    "{} holds no UDP datagram to replay",
+                    path.display()
+                ));
+                break false;
+            }
             // the partial revolution at the end of the capture
-            Next::PassEnded => wired.push(&[], Kind::Data, 0, h, &String::new),
+            Next::PassEnded => {
+                in_pass = 0;
+                wired.push(&[], Kind::Data, 0, h, &String::new);
+            }
             Next::Finished => break false,
         }
         if !ipc::sleep(svc.node(), Duration::ZERO) {
