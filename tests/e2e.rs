@@ -6,6 +6,8 @@
 //! client where there is no Python with iceoryx2's binding (`MIMNAV_PYTHON`, which `.ci/run` sets,
 //! makes a missing one an error).
 
+/// Issue 23: worlds, goals, configs and captures the stack cannot use, at the command line.
+mod bad_input;
 /// The `mimnav` command line.
 mod cli;
 /// The foliage classifier behind the driver replaying a capture.

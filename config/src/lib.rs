@@ -49,7 +49,7 @@ use serde::Deserialize;
 
 use mimnav_shared::config::{
     Checks, Common, CommonTables, ConfigError, DEFAULT_CONFIG_PATH, Invalid, LatencyConfig, Load,
-    LogConfig, MapConfig, apply_overrides, err, seconds_ns, section,
+    LogConfig, MapConfig, apply_overrides, err, read_config_text, seconds_ns, section,
 };
 
 use mimnav_foliage::FoliageParams;
@@ -128,8 +128,7 @@ impl Config {
     /// value.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
         let shown = path.display().to_string();
-        let text =
-            std::fs::read_to_string(path).map_err(|e| err(&shown, format!("cannot read: {e}")))?;
+        let text = read_config_text(path).map_err(|e| err(&shown, e))?;
         Self::from_toml(&text, path, overrides)
     }
 
@@ -158,6 +157,12 @@ impl Config {
             format!("{shown} with --set")
         };
         apply_overrides(&mut table, overrides)?;
+        // TOML reads nan and inf: refused wherever they are, before any section sees them
+        let mut finite = Checks::default();
+        finite.finite_table("", &table);
+        finite
+            .finish()
+            .map_err(|e| ConfigError::invalid(&source, e))?;
         let file: FileConfig =
             section(toml::Value::Table(table), "config", &source).map_err(|mut e| {
                 e.message = e.message.replacen("[config]: ", "", 1);

@@ -175,3 +175,73 @@ fn shipped_config_holds_the_defaults() {
         assert_eq!(c.robot.name, profile);
     }
 }
+
+/// Issue 23 item 3: TOML reads `nan` and `inf`, and a key with no range of its own (a mapper
+/// layer's bounds) let them through. Every non-finite number in the file, a `--set` or a robot
+/// profile is refused, naming the key and where it was written.
+#[test]
+fn issue23_3_non_finite_values_accepted_in_config_are_refused() {
+    for (text, key) in [
+        ("[velodyne]\nrpm = nan\n", "velodyne.rpm"),
+        ("[sim]\nrange_noise_m = inf\n", "sim.range_noise_m"),
+        ("[planner]\ngoal_weight = -inf\n", "planner.goal_weight"),
+        ("[foliage]\nk1 = nan\n", "foliage.k1"),
+        ("[map]\ncell_m = nan\n", "map.cell_m"),
+        ("[robot]\nmax_linear_mps = inf\n", "robot.max_linear_mps"),
+        (
+            "[[mapper.layer]]\nname = \"below\"\nunit = \"m\"\nlow = -inf\nhigh = 0.0\n",
+            "mapper.layer[0].low",
+        ),
+    ] {
+        let e = parse(text).expect_err(key);
+        let invalid = e.invalid.as_ref().unwrap_or_else(|| panic!("typed: {e}"));
+        assert!(invalid.get(key).is_some(), "{key} not named: {e}");
+        assert!(e.to_string().starts_with("test.toml: "), "{e}");
+    }
+    let e = Config::from_toml(
+        "",
+        Path::new("test.toml"),
+        &["sim.goal_tolerance_m=nan".into()],
+    )
+    .expect_err("--set nan");
+    assert!(e.to_string().contains("sim.goal_tolerance_m = NaN"), "{e}");
+    assert!(e.source_name.contains("--set"), "{e}");
+    // a robot profile file: named where it was written
+    let dir = std::env::temp_dir().join(format!("mimnav-config-nan-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("robots")).expect("dir");
+    std::fs::write(
+        dir.join("robots/nanbot.toml"),
+        "name = \"nanbot\"\nradius_m = 0.3\nsensor_height_m = nan\n",
+    )
+    .expect("write");
+    let e = Config::from_toml(
+        "[robot]\nprofile = \"nanbot\"\n",
+        &dir.join("mimnav.toml"),
+        &[],
+    )
+    .expect_err("nan in the profile");
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(e.source_name.ends_with("nanbot.toml"), "{e}");
+    assert!(e.to_string().contains("robot.sensor_height_m = NaN"), "{e}");
+    // the library's own validate() refuses a non-finite layer bound handed to it directly
+    let mapper = mimnav_mapper::config::MapperConfig {
+        layers: vec![mimnav_mapper::config::LayerConfig {
+            name: "below".into(),
+            unit: mimnav_mapper::config::LayerUnit::M,
+            low: f64::NEG_INFINITY,
+            high: 0.0,
+        }],
+        ..Default::default()
+    };
+    let e = mapper.validate().expect_err("-inf low");
+    assert!(e.get("mapper.layer[0].low").is_some(), "{e}");
+}
+
+/// Issue 23 item 2: a config file is read whole, so its size is bounded before reading
+/// (`--config /dev/zero` never ended).
+#[test]
+fn issue23_2_an_oversized_config_file_is_refused_before_reading_it_whole() {
+    let e = Config::load(Path::new("/dev/zero"), &[]).expect_err("endless");
+    assert_eq!(e.source_name, "/dev/zero");
+    assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
+}

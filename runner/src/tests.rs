@@ -177,3 +177,42 @@ fn a_sensor_mounted_off_the_axis_yawed_and_tilted_still_finds_the_glass_and_the_
     assert_eq!(run.sim().outcome(), Outcome::GoalReached);
     assert!(glass > 10, "the glass wall is on the map ({glass} cells)");
 }
+
+/// Issue 23 item 3: with a NaN start the planner turned at −1.5 rad/s for the whole episode.
+/// World files refuse a NaN start now; a scene built around the loader (start x, y or heading
+/// NaN) still never drives: its odometry is refused and the run ends with the refusal, the base
+/// never commanded.
+#[test]
+fn issue23_3_non_finite_values_accepted_a_nan_start_never_drives() {
+    let config = config();
+    for k in 0..3 {
+        let mut w = WorldFile::parse(
+            "name = \"n\"\nstart = [0.0, 0.0, 0.0]\ngoal = [8.0, 0.0]\ntime_limit_s = 40.0\n",
+            "n",
+        )
+        .expect("parses");
+        w.start[k] = f64::NAN;
+        assert!(
+            WorldFile::parse(
+                &format!(
+                    "name = \"n\"\nstart = [{:?}, {:?}, {:?}]\ngoal = [8.0, 0.0]\ntime_limit_s = 40.0\n",
+                    w.start[0], w.start[1], w.start[2]
+                )
+                .replace("NaN", "nan"),
+                "n"
+            )
+            .is_err(),
+            "the loader refuses start[{k}] = nan"
+        );
+        let mut run =
+            Lockstep::new(&config, w.compile(), 1, Options::deployed(&config)).expect("starts");
+        run.set_goal(8.0, 0.0, 0.3).expect("a finite goal");
+        match run.next_revolution() {
+            Err(RunnerError::Refused(_)) => {}
+            other => panic!(
+                "start[{k}] = NaN: {:?}",
+                other.map(|t| t.map(|t| t.command))
+            ),
+        }
+    }
+}

@@ -268,6 +268,8 @@ impl MapperConfig {
             60.0,
         );
         for (i, l) in self.layers.iter().enumerate() {
+            r.finite(format!("mapper.layer[{i}].low"), l.low);
+            r.finite(format!("mapper.layer[{i}].high"), l.high);
             r.require(
                 l.low < l.high,
                 format!("mapper.layer[{i}]"),

@@ -181,11 +181,20 @@ pub fn robot_label(config: &Config) -> String {
     }
 }
 
-fn verdict(r: &reach::Reach) -> &'static str {
-    match (r.reachable, r.start_blocked) {
+fn verdict(r: &reach::Reach) -> String {
+    let what = match (r.reachable, r.start_blocked) {
         (true, _) => "passable",
         (false, true) => "impassable (the start touches an object)",
         (false, false) => "impassable",
+    };
+    // a world too large for the fill's bound is filled at a coarser cell (issue 23 item 2)
+    if r.coarsened {
+        format!(
+            "{what} (on a {:.0} mm grid: the world is too large for a finer one)",
+            r.cell_m * 1000.0
+        )
+    } else {
+        what.to_string()
     }
 }
 

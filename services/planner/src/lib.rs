@@ -17,6 +17,7 @@
 pub mod clearance;
 pub mod config;
 pub mod dwa;
+pub mod guard;
 pub mod inflate;
 pub mod params;
 pub mod pilot;

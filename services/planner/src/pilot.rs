@@ -20,7 +20,7 @@
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::pose::{NonFiniteOdometry, Pose2Ext, check_odometry, odom_pose};
+use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
     command_status, foliage_class,
@@ -40,6 +40,9 @@ pub enum Stale {
     NoMap,
     /// A map whose header does not match its payload (cell count, cell size).
     BadMap,
+    /// The goal in the robot frame is not finite: odometry or goal so large the numbers
+    /// overflow ([`crate::guard`]).
+    GoalNotFinite,
 }
 
 impl Stale {
@@ -50,6 +53,7 @@ impl Stale {
             Stale::OldOdometry => "odometry older than planner.odom_max_age_s",
             Stale::NoMap => "no map on map/plan for planner.map_max_age_s",
             Stale::BadMap => "a map whose header does not match its cells",
+            Stale::GoalNotFinite => "the goal in the robot frame is not finite",
         }
     }
 }
@@ -277,7 +281,14 @@ impl Pilot {
                 Some(header),
             );
         };
-        let (gx, gy) = pose.to_local(goal.x, goal.y);
+        let Some((gx, gy)) = crate::guard::goal_in_robot_frame(&pose, goal.x, goal.y) else {
+            return Decision::stop(
+                command_status::STALE_INPUT,
+                0,
+                Some(Stale::GoalNotFinite),
+                Some(header),
+            );
+        };
         if gx.hypot(gy) <= goal.tolerance_m.max(0.01) {
             return Decision::stop(command_status::GOAL_REACHED, 0, None, Some(header));
         }

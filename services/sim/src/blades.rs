@@ -40,6 +40,23 @@ const SWAY_M: (f64, f64) = (0.005, 0.03);
 const SWAY_HZ: (f64, f64) = (0.3, 1.5);
 /// Side of the field's cells, m.
 const CELL_M: f64 = 0.1;
+/// Most cells the blade fields of one world may have in all: each costs 4 bytes (16 MB in
+/// all), one per 10 × 10 cm of each grass patch's bounding box (40 000 m² of boxes).
+pub const MAX_FIELD_CELLS: f64 = 4_000_000.0;
+/// Most blades (expected) the blade fields of one world may hold in all: each costs 28 bytes
+/// (about 120 MB in all with the slack reserved).
+pub const MAX_FIELD_BLADES: f64 = 4_000_000.0;
+
+/// The size of the blade field over the box `min`–`max` at `density`: its cells and the
+/// blades expected in it. What [`BladeField::new`] allocates; the world loader refuses a world
+/// whose fields exceed [`MAX_FIELD_CELLS`] or [`MAX_FIELD_BLADES`] before anything is built.
+pub fn field_size(min: [f64; 2], max: [f64; 2], density: f64) -> (f64, f64) {
+    let nx = ((max[0] - min[0]) / CELL_M).ceil().max(1.0);
+    let ny = ((max[1] - min[1]) / CELL_M).ceil().max(1.0);
+    let cells = nx * ny;
+    let lambda = areal_density(density.max(0.0)) * CELL_M * CELL_M;
+    (cells, lambda * cells)
+}
 /// The beam is `D(t)` wide at range `t`.
 #[inline]
 pub fn beam_width(t: f64) -> f64 {
@@ -177,8 +194,11 @@ impl BladeField {
         let nx = (((max[0] - min[0]) / CELL_M).ceil().max(1.0) as usize).min(1 << 14);
         let ny = (((max[1] - min[1]) / CELL_M).ceil().max(1.0) as usize).min(1 << 14);
         let lambda = areal_density(density.max(0.0)) * CELL_M * CELL_M;
-        let mut start = Vec::with_capacity(nx * ny + 1);
-        let mut blades = Vec::with_capacity((lambda * (nx * ny) as f64 * 1.1) as usize);
+        // the world loader bounds both (field_size); never reserve more than the bound here
+        let cells = (nx * ny).min(MAX_FIELD_CELLS as usize);
+        let expected = (lambda * (nx * ny) as f64 * 1.1).min(MAX_FIELD_BLADES * 1.1);
+        let mut start = Vec::with_capacity(cells + 1);
+        let mut blades = Vec::with_capacity(expected as usize);
         for iy in 0..ny {
             for ix in 0..nx {
                 start.push(blades.len() as u32);

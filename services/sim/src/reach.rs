@@ -40,7 +40,19 @@ pub struct Reach {
     pub start_blocked: bool,
     /// Poses tested.
     pub tested: usize,
+    /// The grid spacing the fill ran at, m: the one asked for, or coarser when the world is too
+    /// large for [`MAX_POSES`] at that spacing.
+    pub cell_m: f64,
+    /// The fill ran at a coarser spacing than asked, the world being too large for
+    /// [`MAX_POSES`] at that one.
+    pub coarsened: bool,
 }
+
+/// Most poses (grid cells × headings) the fill keeps a bit for: 2³⁰, 128 MB (and, with several
+/// headings, a 4-byte clearance per cell, at most 60 MB at [`BODY_HEADINGS`]). A world whose
+/// extent needs more at the spacing asked for is filled at a coarser one, reported in
+/// [`Reach::cell_m`] (a world spans at most 2 km, [`crate::world::WORLD_EXTENT_M`]).
+pub const MAX_POSES: f64 = (1u64 << 30) as f64;
 
 /// The robot's footprint as the flood fill needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -125,6 +137,8 @@ pub fn reach_by(
             reachable: false,
             start_blocked: true,
             tested: 1,
+            cell_m,
+            coarsened: false,
         };
     }
     // the extent: objects, start and goal, and room to go round them all
@@ -139,8 +153,31 @@ pub fn reach_by(
     for o in &scene.objects {
         grow(o.bound.0[0], o.bound.0[1], o.bound.1);
     }
-    let cell = cell_m.max(1e-3);
-    let margin = 2.0 * footprint.outer_m + 4.0 * cell + 0.1;
+    let asked = cell_m.max(1e-3);
+    let mut cell = asked;
+    let mut margin = 2.0 * footprint.outer_m + 4.0 * cell + 0.1;
+    // bounded: a world too large for the grid at this spacing is filled at a coarser one
+    let poses = |cell: f64, margin: f64| {
+        ((x1 - x0 + 2.0 * margin) / cell + 2.0)
+            * ((y1 - y0 + 2.0 * margin) / cell + 2.0)
+            * k_n as f64
+    };
+    // NaN (a non-finite extent) never fits
+    let fits = |cell: f64, margin: f64| poses(cell, margin) <= MAX_POSES;
+    while !fits(cell, margin) && cell < 1e3 {
+        cell *= 1.25;
+        margin = 2.0 * footprint.outer_m + 4.0 * cell + 0.1;
+    }
+    if !fits(cell, margin) {
+        // only a non-finite extent gets here (a scene not from a checked world file)
+        return Reach {
+            reachable: false,
+            start_blocked: false,
+            tested: 0,
+            cell_m: cell,
+            coarsened: true,
+        };
+    }
     // grid indices relative to the start's cell, i = (x − start) / cell
     let i0 = ((x0 - margin - start[0]) / cell).floor() as i64;
     let i1 = ((x1 + margin - start[0]) / cell).ceil() as i64;
@@ -192,6 +229,8 @@ pub fn reach_by(
                 reachable: true,
                 start_blocked: false,
                 tested,
+                cell_m: cell,
+                coarsened: cell > asked,
             };
         }
         let turns = if k_n > 1 {
@@ -224,6 +263,8 @@ pub fn reach_by(
         reachable: false,
         start_blocked: false,
         tested,
+        cell_m: cell,
+        coarsened: cell > asked,
     }
 }
 

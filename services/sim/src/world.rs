@@ -34,15 +34,23 @@
 //! | `[[rock]]` | `center`, `radius` 0.25, `height` 0.3, `reflectivity` 35 | solid (may sit inside grass) |
 //!
 //! `survey = [[x, y], …]` (optional) is the route the map scorer drives; it defaults to the goal.
+//!
+//! Limits, checked on loading before anything is built (docs/configuration.md, "Limits of a
+//! world"): every number finite; positions within [`WORLD_EXTENT_M`]; angles within
+//! [`MAX_ANGLE_DEG`]; the grass patches' blade fields within [`crate::blades::MAX_FIELD_CELLS`]
+//! and [`crate::blades::MAX_FIELD_BLADES`] in all; the file at most [`MAX_WORLD_FILE_BYTES`].
 //! A `[generated]` table (`family`, `seed`, `index`) records where a world drawn by
 //! [`crate::generate`] came from.
 
 use std::path::Path;
 
 use mimnav_shared::config::{Checks, Invalid};
+
 use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::cell_class;
 use serde::{Deserialize, Serialize};
+
+use crate::blades;
 
 /// Why a world cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -451,6 +459,15 @@ pub struct Scene {
     pub objects: Vec<Object>,
 }
 
+/// Every position in a world file (start, goal, survey, ends and centres of objects) lies
+/// within this many metres of the origin along x and along y: finite, and small enough that what
+/// is sized by the world's extent (the reachability grid of `mimnav worlds`) stays bounded.
+pub const WORLD_EXTENT_M: f64 = 1000.0;
+/// The longest world file read, bytes (the bundled ones are under 3 kB).
+pub const MAX_WORLD_FILE_BYTES: u64 = 4 * 1024 * 1024;
+/// Angles in a world file (the start's heading, `yaw_deg`) lie within ± this, degrees.
+pub const MAX_ANGLE_DEG: f64 = 3600.0;
+
 /// How far a curtain's strands sway either side of its line, m (the physics jitters strand
 /// ranges by 3 cm, one standard deviation).
 pub const CURTAIN_SWAY_M: f64 = 0.06;
@@ -528,12 +545,29 @@ impl Scene {
 impl WorldFile {
     /// Reads and checks a world file.
     pub fn load(path: &Path) -> Result<WorldFile, WorldError> {
+        use std::io::Read;
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| WorldError {
+        let cannot = |e: std::io::Error| WorldError {
             path: shown.clone(),
             message: format!("cannot read: {e}"),
             invalid: None,
-        })?;
+        };
+        // bounded before reading: a world file is a few kB; the largest accepted is read whole
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .map_err(cannot)?
+            .take(MAX_WORLD_FILE_BYTES + 1)
+            .read_to_string(&mut text)
+            .map_err(cannot)?;
+        if text.len() as u64 > MAX_WORLD_FILE_BYTES {
+            return Err(WorldError {
+                path: shown,
+                message: format!(
+                    "the file is longer than {MAX_WORLD_FILE_BYTES} bytes, the most a world file may be"
+                ),
+                invalid: None,
+            });
+        }
         Self::parse(&text, &shown)
     }
 
@@ -555,6 +589,8 @@ impl WorldFile {
     /// Every value refused, each naming its key and what is allowed.
     pub(crate) fn validate(&self) -> Result<(), Invalid> {
         let mut bad = Checks::default();
+        self.check_positions(&mut bad);
+        self.check_grass_fields(&mut bad);
         let mut pos = |what: String, v: f64, lo: f64, hi: f64| bad.check(what, v, lo, hi);
         pos("time_limit_s".into(), self.time_limit_s, 1.0, 3600.0);
         pos(
@@ -657,6 +693,109 @@ impl WorldFile {
             );
         }
         bad.finish()
+    }
+
+    /// Positions and angles: finite, and within [`WORLD_EXTENT_M`] of the origin (angles within
+    /// [`MAX_ANGLE_DEG`]). A NaN start or goal would otherwise load and steer the robot.
+    fn check_positions(&self, bad: &mut Checks) {
+        let e = WORLD_EXTENT_M;
+        let mut point = |key: String, p: &[f64]| {
+            for (k, v) in p.iter().enumerate() {
+                bad.check(format!("{key}[{k}]"), *v, -e, e);
+            }
+        };
+        point("start".into(), &self.start[..2]);
+        point("goal".into(), &self.goal);
+        for (i, p) in self.survey.iter().enumerate() {
+            point(format!("survey[{i}]"), p);
+        }
+        for (i, w) in self.wall.iter().enumerate() {
+            point(format!("wall[{i}].from"), &w.from);
+            point(format!("wall[{i}].to"), &w.to);
+        }
+        for (i, g) in self.glass.iter().enumerate() {
+            point(format!("glass[{i}].from"), &g.from);
+            point(format!("glass[{i}].to"), &g.to);
+        }
+        for (i, c) in self.curtain.iter().enumerate() {
+            point(format!("curtain[{i}].from"), &c.from);
+            point(format!("curtain[{i}].to"), &c.to);
+        }
+        for (i, p) in self.pillar.iter().enumerate() {
+            point(format!("pillar[{i}].center"), &p.center);
+        }
+        for (i, g) in self.grass.iter().enumerate() {
+            point(format!("grass[{i}].center"), &g.center);
+        }
+        for (i, b) in self.bush.iter().enumerate() {
+            point(format!("bush[{i}].center"), &b.center);
+        }
+        for (i, t) in self.trunk.iter().enumerate() {
+            point(format!("trunk[{i}].center"), &t.center);
+        }
+        for (i, r) in self.rock.iter().enumerate() {
+            point(format!("rock[{i}].center"), &r.center);
+        }
+        let a = MAX_ANGLE_DEG;
+        bad.check("start[2]", self.start[2], -a, a);
+        for (i, p) in self.pillar.iter().enumerate() {
+            bad.check(format!("pillar[{i}].yaw_deg"), p.yaw_deg, -a, a);
+        }
+        for (i, g) in self.grass.iter().enumerate() {
+            bad.check(format!("grass[{i}].yaw_deg"), g.yaw_deg, -a, a);
+        }
+    }
+
+    /// The blade fields the simulator builds over the grass patches (with `sim.grass_blades`;
+    /// refused either way, so a world runs with both settings): their cells and blades in all
+    /// within [`blades::MAX_FIELD_CELLS`] and [`blades::MAX_FIELD_BLADES`], checked before
+    /// anything is allocated. A patch with a value already refused is left out.
+    fn check_grass_fields(&self, bad: &mut Checks) {
+        let mut sizes = Vec::new();
+        for (i, g) in self.grass.iter().enumerate() {
+            let ok = g.center.iter().chain(&g.size).all(|v| v.is_finite())
+                && g.yaw_deg.is_finite()
+                && g.density.is_finite();
+            if !ok {
+                continue;
+            }
+            let poly = rect(g.center, g.size, g.yaw_deg);
+            let lo = [0, 1].map(|k| poly.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min));
+            let hi = [0, 1].map(|k| poly.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max));
+            let (cells, blades) = blades::field_size(lo, hi, g.density);
+            sizes.push((i, cells, blades));
+        }
+        let cells: f64 = sizes.iter().map(|s| s.1).sum();
+        let blades: f64 = sizes.iter().map(|s| s.2).sum();
+        let each = |k: usize| {
+            sizes
+                .iter()
+                .map(|s| format!("grass[{}]: {:.0}", s.0, if k == 1 { s.1 } else { s.2 }))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        bad.require(
+            cells <= blades::MAX_FIELD_CELLS,
+            "grass",
+            format!(
+                "grass: the patches' bounding boxes make {cells:.0} cells of 10 × 10 cm ({}), \
+                 more than the limit of {:.0} (40 000 m² of boxes in all): make the patches smaller",
+                each(1),
+                blades::MAX_FIELD_CELLS
+            ),
+        );
+        bad.require(
+            blades <= blades::MAX_FIELD_BLADES,
+            "grass",
+            format!(
+                "grass: the patches hold {blades:.0} blades ({}; about {:.0} per m² of bounding box \
+                 per unit of density), more than the limit of {:.0}: make the patches smaller or \
+                 sparser",
+                each(2),
+                blades::areal_density(1.0),
+                blades::MAX_FIELD_BLADES
+            ),
+        );
     }
 
     /// Compiles the world into a [`Scene`].

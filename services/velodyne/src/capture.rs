@@ -5,7 +5,12 @@
 //! The file format is parsed by the `pcap-file` crate; this module streams the file through it
 //! with a bounded buffer (captures can be larger than memory), tracks the byte offset of every
 //! record so a corrupt or truncated file is reported as "file, offset, what", and peels the link,
-//! IP and UDP headers itself. The UDP payload length comes from the UDP header (bounded by the
+//! IP and UDP headers itself. Each record's length is read from its header and checked before
+//! anything more is read (issue 23 item 7): a pcap record longer than [`MAX_RECORD_LEN`], a
+//! pcapng block longer than [`MAX_BLOCK_LEN`] or shorter than its header, or either longer than
+//! what is left of the file, is refused at once; the buffer never holds more than one record
+//! and a chunk. A link type the reader cannot peel is refused by name
+//! ([`CaptureError::UnsupportedLinkType`]). The UDP payload length comes from the UDP header (bounded by the
 //! captured bytes), never from the IPv4 total length: VeloView writes a fixed 1234 there even in
 //! 554-byte position-packet frames.
 
@@ -17,6 +22,13 @@ use std::path::{Path, PathBuf};
 use pcap_file::pcap::PcapParser;
 use pcap_file::pcapng::{Block, PcapNgParser};
 use pcap_file::{DataLink, PcapError};
+
+/// The longest pcap record (captured bytes) accepted: 256 KiB, libpcap's largest snapshot
+/// length (`MAXIMUM_SNAPLEN`). A VLP-16 frame is 1 248 bytes (1 290 with a cooked header).
+pub const MAX_RECORD_LEN: u32 = 256 * 1024;
+/// The longest pcapng block accepted, header and options included: 16 MiB. A packet block
+/// holds at most [`MAX_RECORD_LEN`] captured bytes besides.
+pub const MAX_BLOCK_LEN: u32 = 16 * 1024 * 1024;
 
 /// Why a capture cannot be read (further).
 #[derive(Debug, thiserror::Error)]
@@ -46,6 +58,32 @@ pub enum CaptureError {
         offset: u64,
         /// What is wrong.
         detail: String,
+    },
+    /// A record or block whose length field cannot be right, refused before reading it.
+    #[error(
+        "{path}: impossible record at byte offset {offset}: {what} {length} bytes long, more than {limit}"
+    )]
+    ImpossibleLength {
+        /// The capture.
+        path: PathBuf,
+        /// Byte offset of the record in the file.
+        offset: u64,
+        /// What the length is of (`pcap record`, `pcapng block`, `pcapng packet`).
+        what: &'static str,
+        /// The length written.
+        length: u64,
+        /// What it may be at most, and why.
+        limit: String,
+    },
+    /// A link layer the reader cannot peel: nothing in the capture could be replayed.
+    #[error(
+        "{path}: link type {linktype} is not supported (supported: Ethernet 1, raw IP 101/12/14/228/229, BSD loopback 0/108, Linux SLL 113 and SLL2 276)"
+    )]
+    UnsupportedLinkType {
+        /// The capture.
+        path: PathBuf,
+        /// The link type (LINKTYPE_*) number.
+        linktype: u32,
     },
     /// The file ends in the middle of a record (a capture cut short).
     #[error(
@@ -221,9 +259,18 @@ pub struct CaptureReader {
     payload: Vec<u8>,
     skipped: Vec<(&'static str, u64)>,
     file_len: u64,
+    /// The file is a regular file: `file_len` bounds what a record can need.
+    regular: bool,
+    /// Bytes read from the file so far.
+    bytes_read: u64,
+    /// Datagrams returned so far (this pass).
+    delivered: u64,
 }
 
 const READ_CHUNK: usize = 1 << 20;
+/// Bytes of a record's header that hold its length: 16 for pcap, 12 for a pcapng block (24
+/// with an enhanced packet block's captured length).
+const RECORD_HEADER_LEN: usize = 24;
 
 impl CaptureReader {
     /// Opens `path` and reads its file header.
@@ -233,7 +280,8 @@ impl CaptureReader {
             source,
         };
         let mut file = File::open(path).map_err(io_err)?;
-        let file_len = file.metadata().map_err(io_err)?.len();
+        let meta = file.metadata().map_err(io_err)?;
+        let (file_len, regular) = (meta.len(), meta.is_file());
         let mut head = Vec::with_capacity(READ_CHUNK);
         (&mut file)
             .take(64 * 1024)
@@ -261,8 +309,15 @@ impl CaptureReader {
                 ))
             })?;
             let linktype = u32::from(parser.header().datalink);
+            if !link_type_supported(parser.header().datalink) {
+                return Err(CaptureError::UnsupportedLinkType {
+                    path: path.to_path_buf(),
+                    linktype,
+                });
+            }
             (rest.len(), Format::Pcap { parser, linktype })
         };
+        let bytes_read = head.len() as u64;
         Ok(CaptureReader {
             path: path.to_path_buf(),
             file,
@@ -274,7 +329,15 @@ impl CaptureReader {
             payload: Vec::with_capacity(2048),
             skipped: Vec::new(),
             file_len,
+            regular,
+            bytes_read,
+            delivered: 0,
         })
+    }
+
+    /// Bytes read from the file so far (a damaged record is refused without reading the rest).
+    pub fn bytes_read(&self) -> u64 {
+        self.bytes_read
     }
 
     /// The capture's path.
@@ -331,6 +394,7 @@ impl CaptureReader {
                 }
             };
             self.buf.truncate(old + n);
+            self.bytes_read += n as u64;
             if n == 0 {
                 self.eof = true;
             }
@@ -338,23 +402,149 @@ impl CaptureReader {
         Ok(())
     }
 
+    /// The end of the file: `Ok(None)`, unless every packet of it was on a link layer the
+    /// reader cannot peel (a pcapng file names its link types per interface, so that is known
+    /// only at its end).
+    fn end_of_file(&self) -> Result<Option<Datagram<'_>>, CaptureError> {
+        let unsupported = FrameSkip::UnsupportedLinkType(0).kind();
+        let skipped_all = self.skipped.iter().any(|(k, _)| *k == unsupported);
+        if self.delivered == 0
+            && skipped_all
+            && let Format::PcapNg { parser } = &self.format
+            && let Some(iface) = parser
+                .interfaces()
+                .iter()
+                .find(|i| !link_type_supported(i.linktype))
+        {
+            return Err(CaptureError::UnsupportedLinkType {
+                path: self.path.clone(),
+                linktype: u32::from(iface.linktype),
+            });
+        }
+        Ok(None)
+    }
+
+    /// The length of the record at the start of the unparsed bytes (at file `offset`), read
+    /// from its header and checked: at most [`MAX_RECORD_LEN`] captured bytes, a pcapng block
+    /// of 12 bytes to [`MAX_BLOCK_LEN`], and within what is left of the file.
+    fn record_len(&self, offset: u64) -> Result<usize, CaptureError> {
+        let head = &self.buf[self.pos..];
+        let left = if self.regular {
+            self.file_len.saturating_sub(offset)
+        } else {
+            u64::MAX
+        };
+        let truncated = || CaptureError::Truncated {
+            path: self.path.clone(),
+            offset,
+            missing: if self.regular {
+                usize::try_from(left).unwrap_or(usize::MAX)
+            } else {
+                head.len()
+            },
+        };
+        let impossible = |what, length: u64, limit: String| CaptureError::ImpossibleLength {
+            path: self.path.clone(),
+            offset,
+            what,
+            length,
+            limit,
+        };
+        let word = |at: usize, e: pcap_file::Endianness| -> Option<u32> {
+            let b: [u8; 4] = head.get(at..at + 4)?.try_into().ok()?;
+            Some(match e {
+                pcap_file::Endianness::Big => u32::from_be_bytes(b),
+                pcap_file::Endianness::Little => u32::from_le_bytes(b),
+            })
+        };
+        let need = match &self.format {
+            Format::Pcap { parser, .. } => {
+                let e = parser.header().endianness;
+                let incl = word(8, e).ok_or_else(truncated)?;
+                if incl > MAX_RECORD_LEN {
+                    return Err(impossible(
+                        "pcap record",
+                        u64::from(incl),
+                        format!("{MAX_RECORD_LEN} (the largest snapshot length)"),
+                    ));
+                }
+                16 + u64::from(incl)
+            }
+            Format::PcapNg { parser } => {
+                let mut e = parser.section().endianness;
+                let kind = word(0, e).ok_or_else(truncated)?;
+                if kind == 0x0A0D_0D0A {
+                    // a new section: its byte-order magic says how to read its length
+                    let magic = head.get(8..12).ok_or_else(truncated)?;
+                    e = match magic {
+                        [0x1A, 0x2B, 0x3C, 0x4D] => pcap_file::Endianness::Big,
+                        [0x4D, 0x3C, 0x2B, 0x1A] => pcap_file::Endianness::Little,
+                        _ => {
+                            return Err(CaptureError::Corrupt {
+                                path: self.path.clone(),
+                                offset,
+                                detail: format!(
+                                    "section header with byte-order magic {magic:02x?}"
+                                ),
+                            });
+                        }
+                    };
+                }
+                let len = word(4, e).ok_or_else(truncated)?;
+                if !(12..=MAX_BLOCK_LEN).contains(&len) || len % 4 != 0 {
+                    return Err(impossible(
+                        "pcapng block",
+                        u64::from(len),
+                        format!("{MAX_BLOCK_LEN} (or under 12, or not a multiple of 4)"),
+                    ));
+                }
+                // enhanced (6) and obsolete (2) packet blocks: the captured length at byte 20
+                if (kind == 6 || kind == 2)
+                    && let Some(captured) = word(20, e)
+                    && captured > MAX_RECORD_LEN.min(len)
+                {
+                    return Err(impossible(
+                        "pcapng packet",
+                        u64::from(captured),
+                        format!(
+                            "{} (the largest snapshot length, and its block's length)",
+                            MAX_RECORD_LEN.min(len)
+                        ),
+                    ));
+                }
+                u64::from(len)
+            }
+        };
+        if need > left {
+            return Err(truncated());
+        }
+        usize::try_from(need).map_err(|_| truncated())
+    }
+
     /// The next UDP datagram, `Ok(None)` at the end of the file.
     #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> Result<Option<Datagram<'_>>, CaptureError> {
         loop {
-            // A record rarely exceeds 64 KiB; on IncompleteBuffer we read more and try again.
-            let mut want = 64 * 1024;
-            let (consumed, found) = loop {
-                self.fill(want)?;
-                let offset = self.offset();
+            // the record's header first: its length is checked before the record is read
+            self.fill(RECORD_HEADER_LEN)?;
+            if self.buf.len() == self.pos && self.eof {
+                return self.end_of_file();
+            }
+            let offset = self.offset();
+            let need = self.record_len(offset)?;
+            let (consumed, found) = {
+                self.fill(need)?;
                 let avail = &self.buf[self.pos..];
-                if avail.is_empty() && self.eof {
-                    return Ok(None);
-                }
                 let parsed = parse_record(&mut self.format, avail);
                 match parsed {
-                    Ok((rest_len, rec)) => break (avail.len() - rest_len, rec),
-                    Err(PcapError::IncompleteBuffer) if !self.eof => want = avail.len() * 2 + 1,
+                    Ok((rest_len, rec)) => (avail.len() - rest_len, rec),
+                    Err(PcapError::IncompleteBuffer) if avail.len() >= need => {
+                        return Err(CaptureError::Corrupt {
+                            path: self.path.clone(),
+                            offset,
+                            detail: format!("its contents run past its length ({need} bytes)"),
+                        });
+                    }
                     Err(PcapError::IncompleteBuffer) => {
                         return Err(CaptureError::Truncated {
                             path: self.path.clone(),
@@ -371,7 +561,6 @@ impl CaptureReader {
                     }
                 }
             };
-            let offset = self.offset();
             self.pos += consumed;
             let Some((ts_ns, linktype, frame_range)) = found else {
                 continue;
@@ -382,6 +571,7 @@ impl CaptureReader {
                     self.payload.clear();
                     self.payload.extend_from_slice(udp.payload);
                     let (src, dst_port) = (udp.src, udp.dst_port);
+                    self.delivered += 1;
                     return Ok(Some(Datagram {
                         ts_ns,
                         src,

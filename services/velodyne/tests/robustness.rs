@@ -138,7 +138,8 @@ proptest! {
                     prop_assert_eq!(offset as usize + missing, bytes.len());
                     break;
                 }
-                Err(CaptureError::Corrupt { offset, .. }) => {
+                Err(CaptureError::Corrupt { offset, .. })
+                | Err(CaptureError::ImpossibleLength { offset, .. }) => {
                     prop_assert!(offset < bytes.len() as u64);
                     break;
                 }
@@ -317,4 +318,151 @@ fn position_packets_round_trip() {
     assert_eq!(p.nmea, s);
     assert_eq!(p.pps, mimnav_velodyne::packet::PpsStatus::Locked);
     assert_eq!(p.gprmc_unix_s(), Some(1_437_687_667.0));
+}
+
+/// Issue 23 item 7: a pcap record whose length field says 0xFFFFFFFF or 0x7FFFFFF0 was reported
+/// as "truncated" only after the rest of the file had been read into memory (834 MB of RSS for
+/// a 305 MB capture). It is refused from its header, naming the offset and the length, with no
+/// more of the file read than the chunk the header came in.
+#[test]
+fn issue23_7_impossible_record_lengths_are_refused_before_reading() {
+    // 16 000 records of 1 264 bytes: a 20 MB capture
+    let payloads: Vec<Vec<u8>> = (0..16_000u32).map(|i| vec![i as u8; 1206]).collect();
+    let path = temp_path("impossible.pcap");
+    let _cleanup = Cleanup(path.clone());
+    write_capture(&path, &payloads);
+    let good = std::fs::read(&path).expect("read");
+    assert!(good.len() > 20_000_000);
+    for length in [0xFFFF_FFFFu32, 0x7FFF_FFF0, 256 * 1024 + 1] {
+        let mut bytes = good.clone();
+        // the second record: 24-byte file header + 16 + 1248; its incl_len at +8
+        let at = 24 + 16 + 1248;
+        bytes[at + 8..at + 12].copy_from_slice(&length.to_le_bytes());
+        std::fs::write(&path, &bytes).expect("write");
+        let mut r = CaptureReader::open(&path).expect("open");
+        assert!(r.next().expect("the first record is intact").is_some());
+        let e = r.next().expect_err("impossible length");
+        match &e {
+            CaptureError::ImpossibleLength {
+                offset,
+                length: l,
+                what,
+                ..
+            } => {
+                assert_eq!(
+                    (*offset, *l, *what),
+                    (at as u64, u64::from(length), "pcap record")
+                );
+            }
+            other => panic!("{length:#x}: {other}"),
+        }
+        let shown = e.to_string();
+        assert!(shown.contains(&format!("byte offset {at}")), "{shown}");
+        assert!(shown.contains("262144"), "{shown}");
+        // one chunk (1 MiB) and the header, not the 20 MB file
+        assert!(
+            r.bytes_read() <= 2 << 20,
+            "{length:#x}: {} bytes read of {}",
+            r.bytes_read(),
+            bytes.len()
+        );
+    }
+    // a possible length that runs past the end of the file: truncated, said at once
+    let mut bytes = good[..24 + 3 * 1264].to_vec();
+    let at = 24 + 2 * 1264;
+    bytes[at + 8..at + 12].copy_from_slice(&200_000u32.to_le_bytes());
+    std::fs::write(&path, &bytes).expect("write");
+    let mut r = CaptureReader::open(&path).expect("open");
+    assert!(r.next().expect("first").is_some() && r.next().expect("second").is_some());
+    match r.next() {
+        Err(CaptureError::Truncated {
+            offset, missing, ..
+        }) => {
+            assert_eq!(
+                (offset as usize, offset as usize + missing),
+                (at, bytes.len())
+            );
+        }
+        other => panic!("{:?}", other.map(|d| d.map(|d| d.offset))),
+    }
+}
+
+/// A pcapng capture of `n` VLP-16-sized datagrams on one Ethernet interface.
+fn pcapng_capture(n: usize) -> Vec<u8> {
+    use pcap_file::pcapng::PcapNgWriter;
+    use pcap_file::pcapng::blocks::enhanced_packet::EnhancedPacketBlock;
+    use pcap_file::pcapng::blocks::interface_description::InterfaceDescriptionBlock;
+    let mut w = PcapNgWriter::new(Vec::new()).expect("section");
+    w.write_pcapng_block(InterfaceDescriptionBlock::new(
+        pcap_file::DataLink::ETHERNET,
+        0xFFFF,
+    ))
+    .expect("interface");
+    let mut frame = vec![0xFF; 6];
+    frame.extend_from_slice(&[0x60, 0x76, 0x88, 0, 0, 1, 0x08, 0x00]);
+    frame.extend_from_slice(&[
+        0x45, 0, 0x04, 0xD2, 0, 0, 0x40, 0, 64, 17, 0, 0, 192, 168, 1, 201, 255, 255, 255, 255,
+    ]);
+    frame.extend_from_slice(&[0x09, 0x40, 0x09, 0x40, 0x04, 0xBE, 0, 0]);
+    frame.extend_from_slice(&[7u8; 1206]);
+    for i in 0..n {
+        w.write_pcapng_block(EnhancedPacketBlock {
+            interface_id: 0,
+            timestamp: std::time::Duration::from_micros(1_700_000_000_000_000 + i as u64),
+            original_len: frame.len() as u32,
+            data: std::borrow::Cow::Borrowed(&frame),
+            options: vec![],
+        })
+        .expect("packet");
+    }
+    w.into_inner()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, .. ProptestConfig::default() })]
+
+    /// Issue 23 item 7: whatever 32-bit word of a pcapng capture's first blocks is overwritten
+    /// with whatever value (the length fields included), the reader never panics, never reads
+    /// past the file, and an error names an offset inside it.
+    #[test]
+    fn issue23_7_damaged_pcapng_words_are_refused_with_an_offset_in_the_file(
+        word in 0usize..700,
+        value in prop_oneof![
+            any::<u32>(),
+            Just(0xFFFF_FFF0u32),
+            Just(0x7FFF_FFF0),
+            Just(0xFFFF_FFFF),
+            Just(0),
+            Just(12),
+        ],
+    ) {
+        let mut bytes = pcapng_capture(2);
+        if word * 4 + 4 <= bytes.len() {
+            bytes[word * 4..word * 4 + 4].copy_from_slice(&value.to_le_bytes());
+        }
+        let path = temp_path(&format!("damaged-{word}-{value:x}.pcapng"));
+        let _cleanup = Cleanup(path.clone());
+        std::fs::write(&path, &bytes).expect("write");
+        let Ok(mut r) = CaptureReader::open(&path) else {
+            return Ok(()); // the section header itself was damaged: refused on opening
+        };
+        for _ in 0..100 {
+            match r.next() {
+                Ok(Some(d)) => prop_assert!(d.offset < bytes.len() as u64),
+                Ok(None) => break,
+                Err(CaptureError::Truncated { offset, missing, .. }) => {
+                    prop_assert_eq!(offset as usize + missing, bytes.len());
+                    break;
+                }
+                Err(CaptureError::Corrupt { offset, .. })
+                | Err(CaptureError::ImpossibleLength { offset, .. }) => {
+                    prop_assert!(offset < bytes.len() as u64);
+                    break;
+                }
+                Err(CaptureError::UnsupportedLinkType { .. }) => break,
+                Err(e) => prop_assert!(false, "unexpected {e}"),
+            }
+        }
+        prop_assert!(r.bytes_read() <= bytes.len() as u64);
+    }
 }

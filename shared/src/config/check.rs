@@ -127,6 +127,53 @@ impl Checks {
         self.range(key, value, Allowed::closed(lo, hi));
     }
 
+    /// Refuses `value` unless it is a finite number (for a value with no range of its own:
+    /// TOML reads `nan` and `inf`).
+    pub fn finite(&mut self, key: impl Into<String>, value: f64) {
+        if !value.is_finite() {
+            let key = key.into();
+            self.0.push(ParamError::Rule {
+                message: format!("{key} = {value} is not a finite number"),
+                key,
+            });
+        }
+    }
+
+    /// Refuses every non-finite float (`nan`, `inf`, `-inf`) anywhere in `table`, naming its
+    /// dotted key (`prefix` before it, e.g. `robot`): whatever a section does with the value,
+    /// TOML's `nan` and `inf` never reach it.
+    pub fn finite_table(&mut self, prefix: &str, table: &toml::Table) {
+        fn walk(c: &mut Checks, key: String, v: &toml::Value) {
+            match v {
+                toml::Value::Float(f) => c.finite(key, *f),
+                toml::Value::Array(a) => {
+                    for (i, v) in a.iter().enumerate() {
+                        walk(c, format!("{key}[{i}]"), v);
+                    }
+                }
+                toml::Value::Table(t) => {
+                    for (k, v) in t {
+                        let key = if key.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{key}.{k}")
+                        };
+                        walk(c, key, v);
+                    }
+                }
+                _ => {}
+            }
+        }
+        for (k, v) in table {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            walk(self, key, v);
+        }
+    }
+
     /// Refuses `key` with `message` unless `ok`.
     pub fn require(&mut self, ok: bool, key: impl Into<String>, message: impl Into<String>) {
         if !ok {
@@ -187,5 +234,28 @@ mod tests {
         );
         assert!(e.to_string().contains("; foliage.k3 = 0"), "{e}");
         assert_eq!(Checks::default().finish(), Ok(()));
+    }
+
+    /// Issue 23 item 3: TOML reads `nan` and `inf`; a key without a range of its own let them
+    /// through. Every non-finite float of a table is refused, named by its dotted key.
+    #[test]
+    fn issue23_3_non_finite_values_accepted_every_toml_nan_and_inf_is_named() {
+        let t: toml::Table = toml::from_str(
+            "a = 1.0\nb = nan\n[s]\nc = -inf\nd = [1.0, +inf]\n[[s.l]]\nlow = -nan\nhigh = 2.0\n",
+        )
+        .expect("toml");
+        let mut c = Checks::default();
+        c.finite_table("", &t);
+        let e = c.finish().expect_err("four refused");
+        let keys: Vec<&str> = e.0.iter().map(ParamError::key).collect();
+        assert_eq!(keys, ["b", "s.c", "s.d[1]", "s.l[0].low"], "{e}");
+        assert!(
+            e.to_string().contains("s.c = -inf is not a finite number"),
+            "{e}"
+        );
+        let mut c = Checks::default();
+        c.finite("x", 1.5);
+        c.finite_table("robot", &toml::from_str("radius_m = 0.3").expect("toml"));
+        assert_eq!(c.finish(), Ok(()));
     }
 }

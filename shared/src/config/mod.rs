@@ -41,6 +41,26 @@ pub fn seconds_ns(seconds: f64) -> u64 {
     (seconds * 1e9) as u64
 }
 
+/// The longest config file or robot profile read, bytes (the shipped config is under 10 kB).
+pub const MAX_CONFIG_FILE_BYTES: u64 = 1024 * 1024;
+
+/// Reads a config file or robot profile whole, refusing one longer than
+/// [`MAX_CONFIG_FILE_BYTES`] (`--config /dev/zero` would otherwise never end): the error says
+/// what went wrong, for the caller to name the file.
+pub fn read_config_text(path: &Path) -> Result<String, String> {
+    use std::io::Read;
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_CONFIG_FILE_BYTES + 1).read_to_string(&mut text))
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if text.len() as u64 > MAX_CONFIG_FILE_BYTES {
+        return Err(format!(
+            "the file is longer than {MAX_CONFIG_FILE_BYTES} bytes, the most a config file may be"
+        ));
+    }
+    Ok(text)
+}
+
 /// Default location of the stack's config file when a service is started without `--config`.
 pub const DEFAULT_CONFIG_PATH: &str = "/etc/mimnav/mimnav.toml";
 
@@ -266,14 +286,18 @@ impl Common {
             let dir = path.parent().unwrap_or(Path::new("."));
             let file = dir.join("robots").join(format!("{name}.toml"));
             let shown = file.display().to_string();
-            let text = std::fs::read_to_string(&file).map_err(|e| {
-                err(
-                    source,
-                    format!("robot.profile = \"{name}\": cannot read {shown}: {e}"),
-                )
-            })?;
+            let text = read_config_text(&file)
+                .map_err(|e| err(source, format!("robot.profile = \"{name}\": {shown}: {e}")))?;
             let parsed: RobotProfile =
                 toml::from_str(&text).map_err(|e| err(&shown, e.to_string().trim_end()))?;
+            // TOML reads nan and inf: named in the profile file, where they were written
+            let mut finite = Checks::default();
+            if let Ok(t) = toml::from_str::<toml::Table>(&text) {
+                finite.finite_table("robot", &t);
+            }
+            finite
+                .finish()
+                .map_err(|e| ConfigError::invalid(&shown, e))?;
             base = toml::Table::try_from(parsed).map_err(|e| err(&shown, e.to_string()))?;
         }
         for (k, v) in section_table {
