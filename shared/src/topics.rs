@@ -257,8 +257,9 @@ pub mod command_flags {
     /// The foliage classifier raised its alarm (an obstacle that is not foliage is in range):
     /// the planner took its obstacles as solid.
     pub const FOLIAGE_ALARM: u8 = 1;
-    /// With the `blocked` status: the map holds no route to the goal for the robot's body
-    /// (`planner.stop_without_route`), as opposed to no feasible motion this instant.
+    /// The map holds no route to the goal for the robot's body: the planner drives on slowly by
+    /// the straight line, and with the `blocked` status it has stopped after
+    /// `planner.no_route_stop_s` (as opposed to no feasible motion this instant).
     pub const NO_ROUTE: u8 = 2;
 }
 

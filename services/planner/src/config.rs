@@ -56,10 +56,10 @@ pub struct PlannerConfig {
     pub route_cost_weight: f64,
     /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
     pub use_foliage: bool,
-    /// Stop with the `blocked` status (and the `no route` flag) when the map holds no route to
-    /// the goal for the robot's body (false: drive on by the straight-line distance, as the
-    /// paper's DWA does).
-    pub stop_without_route: bool,
+    /// When the map holds no route to the goal for the robot's body, the planner drives on by
+    /// the straight-line distance (the paper's DWA) no faster than `glass_slow_mps`, with the
+    /// `no route` flag, for this long; then it stops with the `blocked` status, s (0: at once).
+    pub no_route_stop_s: f64,
     /// Top speed with glass at the body's edge, m/s: near glass the planner drives no faster
     /// than this, rising to the robot's top speed at `glass_slow_within_m` (a pane is seen only
     /// where a beam meets it squarely, so its unseen parts appear late).
@@ -96,7 +96,7 @@ impl Default for PlannerConfig {
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             use_foliage: true,
-            stop_without_route: true,
+            no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
             foliage_max_age_s: 0.3,
@@ -151,6 +151,7 @@ impl PlannerConfig {
             100.0,
         );
         r.check("planner.glass_slow_mps", self.glass_slow_mps, 0.01, 10.0);
+        r.check("planner.no_route_stop_s", self.no_route_stop_s, 0.0, 3600.0);
         r.check(
             "planner.glass_slow_within_m",
             self.glass_slow_within_m,

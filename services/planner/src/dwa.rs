@@ -34,12 +34,12 @@ pub enum DwaOutcome {
         omega: f64,
         /// The winning score (lower is better).
         score: f64,
+        /// False when the route knew no way from the robot to the goal: goal progress was the
+        /// straight-line distance and the speed at most `planner.glass_slow_mps`.
+        routed: bool,
     },
     /// No sampled trajectory is feasible: stop.
     Blocked,
-    /// The map holds no route to the goal from where the robot stands, for its body and
-    /// margin (see [`crate::route`]): stop rather than push against what closes the way.
-    NoRoute,
 }
 
 impl DwaOutcome {
@@ -79,8 +79,9 @@ pub fn plan(
 
 /// [`plan`] with the speeds sampled no higher than `speed_cap` (m/s; the window still starts
 /// from the current speed, so a robot faster than the cap slows at its deceleration limit).
-/// With `planner.stop_without_route` set, a `route` that knows no way from the robot's place
-/// to the goal is [`DwaOutcome::NoRoute`].
+/// A `route` that knows no way from the robot's place to the goal is not used: progress is the
+/// straight-line distance and the speed at most `planner.glass_slow_mps`
+/// (`DwaOutcome::Drive::routed` false; [`crate::pilot`] stops after `planner.no_route_stop_s`).
 #[allow(clippy::too_many_arguments)]
 pub fn plan_capped(
     p: &PlannerParams,
@@ -95,10 +96,8 @@ pub fn plan_capped(
     let (robot, pl) = (&p.robot, &p.planner);
     let routed = route.filter(|r| r.value(0.0, 0.0).is_finite());
     let mut speed_cap = speed_cap;
-    if route.is_some() && routed.is_none() {
-        if pl.stop_without_route {
-            return DwaOutcome::NoRoute;
-        }
+    let lost = route.is_some() && routed.is_none();
+    if lost {
         // the map closes every way: drive on by the straight line (the paper's DWA), no faster
         // than beside glass — the way is open only if the map is wrong
         speed_cap = speed_cap.min(pl.glass_slow_mps);
@@ -257,7 +256,12 @@ pub fn plan_capped(
         }
     }
     match best {
-        Some((v, omega, score)) => DwaOutcome::Drive { v, omega, score },
+        Some((v, omega, score)) => DwaOutcome::Drive {
+            v,
+            omega,
+            score,
+            routed: !lost,
+        },
         None => DwaOutcome::Blocked,
     }
 }
@@ -370,7 +374,7 @@ mod tests {
             DwaOutcome::Drive { v, omega, .. } => {
                 assert!(v < 0.05 || omega.abs() > 0.5, "{v} {omega}")
             }
-            DwaOutcome::Blocked | DwaOutcome::NoRoute => {}
+            DwaOutcome::Blocked => {}
         }
         // whatever it chose, its trajectory kept its distance: check the straight one is refused
         let mut clear = Clearance::default();
@@ -381,7 +385,7 @@ mod tests {
         straight.robot.max_angular_rps = 0.0;
         match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
-            DwaOutcome::Blocked | DwaOutcome::NoRoute => {}
+            DwaOutcome::Blocked => {}
         }
     }
 

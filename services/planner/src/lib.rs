@@ -321,7 +321,7 @@ mod tests {
         let mut planner = Planner::new(PlannerParams::default());
         let straight = |o: DwaOutcome| match o {
             DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
-            DwaOutcome::Blocked | DwaOutcome::NoRoute => false,
+            DwaOutcome::Blocked => false,
         };
         assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
         let rock: Vec<(f32, f32)> = (-6..=6)
@@ -401,7 +401,7 @@ mod tests {
     }
 
     #[test]
-    fn no_route_to_the_goal_stops_with_no_route() {
+    fn without_a_route_to_the_goal_the_planner_creeps_and_says_so() {
         // a wall all round the robot, 1.5 m away: it can move, but never reach the goal
         let (grid, classes) = crate::clearance::tests::map(|x, y| {
             if (x.hypot(y) - 1.5).abs() < 0.05 {
@@ -410,22 +410,20 @@ mod tests {
                 cell_class::FREE
             }
         });
-        let mut p = PlannerParams::default();
-        assert_eq!(
-            Planner::new(p.clone()).plan(&classes, grid, 0.0, 0.0, (3.0, 0.0)),
-            DwaOutcome::NoRoute
-        );
-        // a goal inside the wall has a route
-        assert!(matches!(
-            Planner::new(p.clone()).plan(&classes, grid, 0.0, 0.0, (1.0, 0.0)),
-            DwaOutcome::Drive { .. }
-        ));
-        // without the rule it drives on towards the wall as the paper's DWA does, slowly
-        p.planner.stop_without_route = false;
+        let p = PlannerParams::default();
+        // it drives on towards the wall as the paper's DWA does, slowly, and says it has no route
         match Planner::new(p.clone()).plan(&classes, grid, 0.3, 0.0, (3.0, 0.0)) {
-            DwaOutcome::Drive { v, .. } => assert!(v <= p.planner.glass_slow_mps + 1e-9, "{v}"),
+            DwaOutcome::Drive { v, routed, .. } => {
+                assert!(!routed);
+                assert!(v <= p.planner.glass_slow_mps + 1e-9, "{v}");
+            }
             o => panic!("{o:?}"),
         }
+        // a goal inside the wall has a route
+        assert!(matches!(
+            Planner::new(p).plan(&classes, grid, 0.0, 0.0, (1.0, 0.0)),
+            DwaOutcome::Drive { routed: true, .. }
+        ));
     }
 
     #[test]

@@ -19,6 +19,7 @@
 //! - **foliage**: the obstacles of a verdict no older than `planner.foliage_max_age_s` are solid
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
+use mimnav_shared::config::seconds_ns;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
@@ -106,6 +107,13 @@ impl Decision {
             ),
             s => format!("status {s}"),
         };
+        let what = if self.status == command_status::DRIVING
+            && self.flags & command_flags::NO_ROUTE != 0
+        {
+            what + " slowly: no route to the goal on the map"
+        } else {
+            what
+        };
         if self.flags & command_flags::FOLIAGE_ALARM != 0 {
             what + "; foliage alarm"
         } else {
@@ -143,6 +151,8 @@ pub struct Pilot {
     last_map_ns: Option<u64>,
     classes: Vec<u8>,
     seq: u64,
+    /// Since when the map has held no route to the goal (monotonic ns).
+    no_route_since: Option<u64>,
 }
 
 impl Pilot {
@@ -157,6 +167,7 @@ impl Pilot {
             last_map_ns: None,
             classes: Vec::new(),
             seq: 0,
+            no_route_since: None,
         }
     }
 
@@ -201,6 +212,8 @@ impl Pilot {
             return Err(Refused::Goal(g.seq));
         }
         self.goal = Some(*g);
+        // a new goal may have a route: its own time to find one
+        self.no_route_since = None;
         Ok(())
     }
 
@@ -314,21 +327,34 @@ impl Pilot {
             f64::from(odom.omega),
             (gx, gy),
         ) {
-            DwaOutcome::Drive { v, omega, .. } if v.is_finite() && omega.is_finite() => Decision {
-                v,
-                omega,
-                status: command_status::DRIVING,
-                flags,
-                stale: None,
-                source_stamp_ns: header.stamp_ns,
-                source_seq: header.source_seq,
-            },
-            DwaOutcome::NoRoute => Decision::stop(
-                command_status::BLOCKED,
-                flags | command_flags::NO_ROUTE,
-                None,
-                Some(header),
-            ),
+            DwaOutcome::Drive {
+                v, omega, routed, ..
+            } if v.is_finite() && omega.is_finite() => {
+                // no route on the map: creep on by the straight line for
+                // `planner.no_route_stop_s` (the map may be wrong: a pane's unseen stretch drawn
+                // across the only opening), then stop
+                let mut flags = flags;
+                if routed {
+                    self.no_route_since = None;
+                } else {
+                    flags |= command_flags::NO_ROUTE;
+                    let since = *self.no_route_since.get_or_insert(now);
+                    if now.saturating_sub(since)
+                        >= seconds_ns(self.params().planner.no_route_stop_s)
+                    {
+                        return Decision::stop(command_status::BLOCKED, flags, None, Some(header));
+                    }
+                }
+                Decision {
+                    v,
+                    omega,
+                    status: command_status::DRIVING,
+                    flags,
+                    stale: None,
+                    source_stamp_ns: header.stamp_ns,
+                    source_seq: header.source_seq,
+                }
+            }
             _ => Decision::stop(command_status::BLOCKED, flags, None, Some(header)),
         }
     }

@@ -393,3 +393,48 @@ fn every_decision_describes_itself() {
         "blocked (no feasible motion): zero velocity"
     );
 }
+
+#[test]
+fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
+    // a wall across the map 1.5 m ahead, the goal 3 m ahead behind it: no route
+    let walled: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (x, _) = grid().center_of(i / grid().cells, i % grid().cells);
+            if (x - 1.5).abs() < 0.06 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        })
+        .collect();
+    let mut params = PlannerParams::default();
+    params.planner.no_route_stop_s = 2.0;
+    let t = 10 * S;
+    let mut p = driving(params.clone(), t);
+    let mut at = |p: &mut Pilot, dt: u64| {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        p.on_map(&header(dt / (100 * MS)), walled.iter().copied(), t + dt)
+    };
+    let first = at(&mut p, 0);
+    assert_eq!(first.status, command_status::DRIVING, "{first:?}");
+    assert_ne!(first.flags & command_flags::NO_ROUTE, 0, "{first:?}");
+    assert!(first.v <= params.planner.glass_slow_mps + 1e-9, "{first:?}");
+    let before = at(&mut p, 1900 * MS);
+    assert_eq!(before.status, command_status::DRIVING, "{before:?}");
+    let after = at(&mut p, 2000 * MS);
+    assert_eq!(
+        (after.status, after.v, after.omega),
+        (command_status::BLOCKED, 0.0, 0.0)
+    );
+    assert_ne!(after.flags & command_flags::NO_ROUTE, 0);
+    assert!(
+        after.describe().contains("no route"),
+        "{}",
+        after.describe()
+    );
+    // a new goal starts the time again; an open map clears the flag
+    p.goal(&goal(1.0, 0.0, t + 2100 * MS)).expect("a good goal");
+    let open = at(&mut p, 2100 * MS);
+    assert_eq!(open.status, command_status::DRIVING, "{open:?}");
+    assert_eq!(open.flags & command_flags::NO_ROUTE, 0, "{open:?}");
+}
