@@ -4,8 +4,11 @@
 //!   in view) for comparison, at a fixed odometry; each also with the surface cue off
 //!   (`mapper.surface_min_returns = 0`) and with tall cells not kept (`mapper.tall_memory_s = 0`),
 //!   to show what each costs (mean and best over 1 s);
-//! - *drives*: scenario 4 along its survey route, the densest generated world of every family
-//!   along its survey route, and a long drive through generated tall grass (≥ 100 m). The
+//! - *drives*: scenario 4 and scenario 1 along their survey routes; the densest generated world
+//!   of every family (the most points a revolution along its route, among tune seeds 1–8 whose
+//!   route the waypoint driver drives without contact) along its survey route; and 105 m through
+//!   generated tall grass, its first and last 100 revolutions printed apart, and the median of
+//!   every 100, so that a cost growing with the distance driven shows. The
 //!   simulator's base follows the waypoint driver and the mapper gets every revolution with the
 //!   true odometry of its end and its stamp, as the mapper service does, so every memory (glass
 //!   panes, surface and tall cells) grows as it does on a drive. Each prints p50 / p99 / max of
@@ -19,8 +22,12 @@
 //! line ends with the percentiles of all the samples as well. The mappers take turns, so each
 //! update starts with caches another mapper has used, much as the service's does.
 //!
-//! `cargo bench -p mimnav-mapper --bench mapper` (about a minute and a half; `MAPPER_BENCH=drives`
-//! runs the drives only, `MAPPER_BENCH=fixed` the fixed-odometry cases only)
+//! `cargo bench -p mimnav-mapper --bench mapper` (about two minutes on the development machine,
+//! most of it simulating the long drive). `MAPPER_BENCH=fixed` runs the fixed-odometry cases
+//! only, `drives` the drives only, `scenario4` or `long` one drive, `digest` prints a hash of
+//! every map of a few drives (an optimisation must leave it unchanged);
+//! `MAPPER_BENCH_RUNS` sets the mappers a revolution goes through (3), `MAPPER_BENCH_MAX` caps a
+//! drive along a survey route (300 revolutions).
 
 use std::path::PathBuf;
 use std::time::Instant;
