@@ -171,7 +171,7 @@ impl Planner {
 
 /// The top speed near glass (`planner.glass_slow_mps` with glass at the body's edge, rising
 /// linearly to the robot's top speed `planner.glass_slow_within_m` away from it), from the
-/// nearest glass cell — or post standing alone, which frames unseen panes — ahead of the robot's
+/// nearest glass cell — or post standing alone on open floor, which frames unseen panes — ahead of the robot's
 /// centre (x > 0 in the map's robot frame; glass behind it is not driven into). Infinite with no
 /// glass that near, or with the limit off.
 ///
@@ -219,8 +219,9 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
 /// panes, m: a mullion or a frame's joint is 5–15 cm, a structural pillar 30 cm or more.
 const POST_HALF_M: f32 = 0.15;
 
-/// True when the solid cell (r, c) is part of a post standing alone — nothing solid in the ring
-/// from [`POST_HALF_M`] to twice that around it. A post with nothing seen between it and its
+/// True when the solid cell (r, c) is part of a post standing alone — nothing solid or passable
+/// in the ring from [`POST_HALF_M`] to twice that around it (a trunk standing in grass is not
+/// one). A post with nothing seen between it and its
 /// neighbours is how a framed glass partition looks from most places (the panes return light
 /// only where a beam meets them squarely): "an opening between solids" of issue 22, item 3.
 fn is_post(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
@@ -237,7 +238,8 @@ fn is_post(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
                 return false;
             }
             let class = classes[grid.index(rr as usize, cc as usize)];
-            if class == cell_class::SOLID {
+            // a trunk in grass is no pane's post: partitions stand on open floor
+            if class == cell_class::SOLID || class == cell_class::PASSABLE {
                 return false;
             }
         }
@@ -398,6 +400,15 @@ mod tests {
             }
         });
         assert_eq!(glass_speed_cap(&p, &wall, grid), f64::INFINITY);
+        // the post standing in grass: a trunk
+        let trunk: Vec<u8> = post
+            .iter()
+            .map(|&c| match c {
+                cell_class::FREE => cell_class::PASSABLE,
+                c => c,
+            })
+            .collect();
+        assert_eq!(glass_speed_cap(&p, &trunk, grid), f64::INFINITY);
     }
 
     #[test]
