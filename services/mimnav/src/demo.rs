@@ -141,7 +141,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     // the demo's own stop command, sent once the planner is stopped (see `Children::halt_robot`)
     let stop_pub = ipc::cmd_vel_publisher(&node)?;
 
-    println!(
+    let _ = outln!(
         "{}: from ({:.1}, {:.1}) to ({:.1}, {:.1}) with a {} ({} m radius); driver, mapper, foliage classifier and planner as processes, the simulator streaming UDP to 127.0.0.1:{data_port}",
         world.name,
         world.start[0],
@@ -297,7 +297,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let wall_s = started.elapsed().as_secs_f64();
     children.stop_rest();
     if let Some(h) = &halted {
-        println!("{}", h.describe());
+        let _ = outln!("{}", h.describe());
     }
     // the simulator's summary line (`mimnav-sim --json`); a run cut short may have printed none
     let ended: Option<mimnav_sim::Summary> = summary
@@ -335,7 +335,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     }
     latencies_ms.sort_by(f64::total_cmp);
     mapper_ms.sort_by(f64::total_cmp);
-    println!(
+    let _ = outln!(
         "{}: {outcome} after {:.1} s simulated ({wall_s:.1} s wall); driven {:.2} m, straight line {:.2} m (ratio {:.2})",
         world.name,
         num(|e| e.time_s),
@@ -343,26 +343,26 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         num(|e| e.straight_m),
         num(|e| e.path_length_m / e.straight_m)
     );
-    println!(
+    let _ = outln!(
         "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input, {alarmed} with the foliage alarm); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
         latencies_ms.len(),
         percentile(&latencies_ms, 0.5),
         percentile(&latencies_ms, 0.99),
         latencies_ms.last().copied().unwrap_or(f64::NAN)
     );
-    println!(
+    let _ = outln!(
         "of which the mapper's own processing per revolution: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
         percentile(&mapper_ms, 0.5),
         percentile(&mapper_ms, 0.99),
         mapper_ms.last().copied().unwrap_or(f64::NAN)
     );
     if last_map.is_some() {
-        println!(
+        let _ = outln!(
             "wrote {} (the last map, robot at the centre heading up, driven path in cyan)",
             args.out.display()
         );
     } else {
-        println!("no map arrived: nothing written to {}", args.out.display());
+        let _ = outln!("no map arrived: nothing written to {}", args.out.display());
     }
     if interrupted {
         return Ok(ExitCode::from(130));

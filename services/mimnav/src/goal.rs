@@ -1,5 +1,6 @@
 //! `mimnav goal X Y`: sends a navigation goal (odometry frame) to the running stack.
 
+use std::io::Write as _;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -52,7 +53,8 @@ pub fn run(config: &Config, args: &GoalArgs) -> Result<ExitCode> {
     let _ = node.wait(Duration::from_millis(200));
     delivered = delivered.max(publisher.publish(goal)?);
     if delivered == 0 {
-        eprintln!(
+        let _ = writeln!(
+            std::io::stderr(),
             "mimnav: no planner is listening on {} (root path {}, prefix {})",
             mimnav_shared::topics::GOAL,
             config.iceoryx2.global.root_path(),
@@ -60,10 +62,12 @@ pub fn run(config: &Config, args: &GoalArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(1));
     }
-    println!(
+    outln!(
         "goal ({}, {}) sent, tolerance {} m",
-        args.x, args.y, args.tolerance
-    );
+        args.x,
+        args.y,
+        args.tolerance
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 
