@@ -220,6 +220,10 @@ pub fn udp_in_frame(linktype: u32, frame: &[u8]) -> Result<UdpView<'_>, FrameSki
         }
         _ => return Err(FrameSkip::NotIp),
     };
+    // a UDP header cut short: 6 or 7 bytes hold the ports and the length but no payload
+    if udp.len() < 8 {
+        return Err(FrameSkip::Truncated);
+    }
     let dst_port = be16(udp, 2).ok_or(FrameSkip::Truncated)?;
     let udp_len = usize::from(be16(udp, 4).ok_or(FrameSkip::Truncated)?);
     let available = udp.len().saturating_sub(8);
