@@ -52,12 +52,12 @@ fn smoke(target: &str, mutations: usize, needs_captures: bool) {
 
 #[test]
 fn smoke_velodyne_stream() {
-    smoke("velodyne_stream", 15_000, true);
+    smoke("velodyne_stream", 60_000, true);
 }
 
 #[test]
 fn smoke_capture() {
-    smoke("capture", 30_000, true);
+    smoke("capture", 100_000, true);
 }
 
 #[test]
@@ -67,5 +67,5 @@ fn smoke_config() {
 
 #[test]
 fn smoke_world() {
-    smoke("world", 30_000, false);
+    smoke("world", 50_000, false);
 }
