@@ -220,6 +220,10 @@ pub fn udp_in_frame(linktype: u32, frame: &[u8]) -> Result<UdpView<'_>, FrameSki
         }
         _ => return Err(FrameSkip::NotIp),
     };
+    // a UDP header cut short: 6 or 7 bytes hold the ports and the length but no payload
+    if udp.len() < 8 {
+        return Err(FrameSkip::Truncated);
+    }
     let dst_port = be16(udp, 2).ok_or(FrameSkip::Truncated)?;
     let udp_len = usize::from(be16(udp, 4).ok_or(FrameSkip::Truncated)?);
     let available = udp.len().saturating_sub(8);
@@ -248,7 +252,7 @@ enum Format {
 /// Streams the UDP datagrams of a capture file in file order.
 pub struct CaptureReader {
     path: PathBuf,
-    file: File,
+    file: Box<dyn Read + Send>,
     buf: Vec<u8>,
     /// Start of unparsed data in `buf`.
     pos: usize,
@@ -279,9 +283,27 @@ impl CaptureReader {
             path: path.to_path_buf(),
             source,
         };
-        let mut file = File::open(path).map_err(io_err)?;
+        let file = File::open(path).map_err(io_err)?;
         let meta = file.metadata().map_err(io_err)?;
-        let (file_len, regular) = (meta.len(), meta.is_file());
+        let len = meta.is_file().then_some(meta.len());
+        let mut reader = Self::from_reader(Box::new(file), path, len)?;
+        reader.file_len = meta.len();
+        Ok(reader)
+    }
+
+    /// Reads a capture from `file`, named `path` in errors. `len` is its length in bytes when
+    /// known (a regular file, a byte slice): a record longer than what is left is then refused
+    /// before it is read. `None` streams it like a pipe. The fuzz targets read byte slices so.
+    pub fn from_reader(
+        mut file: Box<dyn Read + Send>,
+        path: &Path,
+        len: Option<u64>,
+    ) -> Result<Self, CaptureError> {
+        let io_err = |source| CaptureError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let (file_len, regular) = (len.unwrap_or(0), len.is_some());
         let mut head = Vec::with_capacity(READ_CHUNK);
         (&mut file)
             .take(64 * 1024)

@@ -59,7 +59,7 @@ pub struct Stats {
 }
 
 /// The driver between datagrams.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Driver {
     assembler: Assembler,
     stats: Stats,

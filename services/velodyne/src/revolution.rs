@@ -177,7 +177,7 @@ impl Revolution {
 }
 
 /// Cuts a packet stream into revolutions (see the module docs).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Assembler {
     config: AssemblerConfig,
     decoder: Decoder,
