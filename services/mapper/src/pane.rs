@@ -386,6 +386,7 @@ impl Panes {
     /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell,
     /// at an unknown cell something nearer hides (`occluded`: the inside of a pillar the pane
     /// meets) and at the grid's edge. Returns what was drawn.
+    #[allow(clippy::too_many_arguments)]
     pub fn draw(
         &mut self,
         pose: &Pose2,
