@@ -383,7 +383,8 @@ impl Panes {
 
     /// Draws the panes into `classes`/`cost` seen from `pose`: the evidence as glass (over
     /// anything but solid), and each pane seen in two revolutions or more extended along its line
-    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell,
+    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell
+    /// (past a solid no longer than `mullion_m` with the line going on beyond it: a post),
     /// at an unknown cell something nearer hides (`occluded`: the inside of a pillar the pane
     /// meets) and at the grid's edge. Returns what was drawn.
     #[allow(clippy::too_many_arguments)]
