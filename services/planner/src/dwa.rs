@@ -109,7 +109,9 @@ pub fn plan_capped(
     };
     let (max_v, max_omega) = (robot.max_linear_mps, robot.max_angular_rps);
     let (max_accel, max_alpha) = (robot.max_linear_accel, robot.max_angular_accel);
-    let v_lo = (v0 - max_accel * pl.window_s).max(0.0);
+    // never above the top speed, even when the odometry reports more (a base overshooting, or
+    // a wrong `max_linear_mps`): the window's slowest is then the top speed
+    let v_lo = (v0 - max_accel * pl.window_s).max(0.0).min(max_v);
     let v_hi = (v0 + max_accel * pl.window_s)
         .min(max_v)
         .min(speed_cap)
@@ -386,6 +388,17 @@ mod tests {
         match plan(&straight, grid, &cost, &clear, 0.3, 0.0, (3.0, 0.0), None) {
             DwaOutcome::Drive { v, .. } => assert!(v < 1e-9, "it stands: {v}"),
             DwaOutcome::Blocked => {}
+        }
+    }
+
+    #[test]
+    fn odometry_faster_than_the_limit_never_commands_above_it() {
+        let (grid, classes) = map(|_, _| cell_class::FREE);
+        for v0 in [0.51, 0.8, 5.0] {
+            match run(&classes, grid, v0, (4.0, 0.0)) {
+                DwaOutcome::Drive { v, .. } => assert!(v <= 0.5, "{v0} → {v}"),
+                o => panic!("{o:?}"),
+            }
         }
     }
 
