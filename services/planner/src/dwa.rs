@@ -379,9 +379,7 @@ mod tests {
             DwaOutcome::Blocked => {}
         }
         // whatever it chose, its trajectory kept its distance: check the straight one is refused
-        let mut clear = Clearance::default();
-        clear.compute(&classes, grid, 3.0, 5.0);
-        let cost = vec![0u8; grid.len()];
+        let (clear, cost) = open_cost(&classes, grid, 3.0);
         let mut straight = PlannerParams::default();
         straight.planner.omega_samples = 1;
         straight.robot.max_angular_rps = 0.0;
@@ -400,6 +398,13 @@ mod tests {
                 o => panic!("{o:?}"),
             }
         }
+    }
+
+    /// The clearance of `classes` out to `reach_m`, and a planning cost of zero everywhere.
+    fn open_cost(classes: &[u8], grid: GridSpec, reach_m: f32) -> (Clearance, Vec<u8>) {
+        let mut clear = Clearance::default();
+        clear.compute(classes, grid, reach_m, 5.0);
+        (clear, vec![0u8; grid.len()])
     }
 
     /// Spot's body as its profile gives it: 1.1 × 0.5 m (its enclosing circle: 0.6 m).
@@ -422,9 +427,7 @@ mod tests {
                 cell_class::FREE
             }
         });
-        let mut clear = Clearance::default();
-        clear.compute(&classes, grid, 4.0, 5.0);
-        let cost = vec![0u8; grid.len()];
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
         let straight = |mut p: PlannerParams| {
             p.planner.omega_samples = 1;
             p.robot.max_angular_rps = 0.0;
@@ -449,9 +452,7 @@ mod tests {
                 cell_class::FREE
             }
         });
-        let mut clear = Clearance::default();
-        clear.compute(&classes, grid, 4.0, 5.0);
-        let cost = vec![0u8; grid.len()];
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
         let turn_in_place = |mut p: PlannerParams| {
             p.planner.v_samples = 1;
             p.planner.omega_samples = 1;
@@ -493,9 +494,7 @@ mod tests {
                 cell_class::FREE
             }
         });
-        let mut clear = Clearance::default();
-        clear.compute(&classes, grid, 4.0, 5.0);
-        let cost = vec![0u8; grid.len()];
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
         match plan(&spot(), grid, &cost, &clear, 0.0, 0.0, (3.25, -3.1), None) {
             DwaOutcome::Drive { v, .. } => assert!(v > 0.05, "moves on: {v}"),
             o => panic!("{o:?}"),
