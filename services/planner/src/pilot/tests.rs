@@ -411,7 +411,7 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     params.planner.no_route_stop_s = 2.0;
     let t = 10 * S;
     let mut p = driving(params.clone(), t);
-    let mut at = |p: &mut Pilot, dt: u64| {
+    let at = |p: &mut Pilot, dt: u64| {
         p.odom(&odom(t + dt)).expect("good odometry");
         p.on_map(&header(dt / (100 * MS)), walled.iter().copied(), t + dt)
     };
