@@ -82,6 +82,11 @@ impl PlannerParams {
         seconds_ns(self.planner.foliage_max_age_s)
     }
 
+    /// How long the planner creeps with no route before it stops (`planner.no_route_stop_s`), ns.
+    pub fn no_route_stop_ns(&self) -> u64 {
+        seconds_ns(self.planner.no_route_stop_s)
+    }
+
     /// How long a command is valid after it is sent (`robot.command_validity_s`), ns.
     pub fn command_validity_ns(&self) -> u64 {
         seconds_ns(self.robot.command_validity_s)

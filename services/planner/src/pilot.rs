@@ -19,7 +19,6 @@
 //! - **foliage**: the obstacles of a verdict no older than `planner.foliage_max_age_s` are solid
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
-use mimnav_shared::config::seconds_ns;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
@@ -339,9 +338,7 @@ impl Pilot {
                 } else {
                     flags |= command_flags::NO_ROUTE;
                     let since = *self.no_route_since.get_or_insert(now);
-                    if now.saturating_sub(since)
-                        >= seconds_ns(self.params().planner.no_route_stop_s)
-                    {
+                    if now.saturating_sub(since) >= self.params().no_route_stop_ns() {
                         return Decision::stop(command_status::BLOCKED, flags, None, Some(header));
                     }
                 }
