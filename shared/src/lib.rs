@@ -8,6 +8,7 @@ pub mod cli;
 pub mod config;
 pub mod faults;
 pub mod grid;
+pub mod hop;
 pub mod ipc;
 pub mod logging;
 pub mod pose;

@@ -9,6 +9,7 @@
 //! carried. Odometry with a non-finite number is refused where it arrives.
 
 use mimnav_shared::config::Invalid;
+use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{
     LidarMount, MountTransform, NonFiniteOdometry, Pose2, check_odometry, pose2,
 };
@@ -70,6 +71,7 @@ pub struct ScanStep {
     ranges: Vec<f32>,
     out: Vec<FoliageReturn>,
     seq: u64,
+    scan_hop: Hop,
 }
 
 impl ScanStep {
@@ -89,6 +91,7 @@ impl ScanStep {
             ranges: Vec::new(),
             out: Vec::new(),
             seq: 0,
+            scan_hop: Hop::new(),
         })
     }
 
@@ -115,6 +118,12 @@ impl ScanStep {
         self.seq
     }
 
+    /// The scans taken from `lidar/scan2d` and those that never reached the classifier (gaps in
+    /// their sequence).
+    pub fn scan_hop(&self) -> &Hop {
+        &self.scan_hop
+    }
+
     /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
     /// finite.
     pub fn odom(&mut self, o: &Odometry) -> Result<(), NonFiniteOdometry> {
@@ -125,6 +134,7 @@ impl ScanStep {
 
     /// Classifies the scan `returns` (with its header) that arrived at `now`.
     pub fn scan(&mut self, h: &ScanHeader, returns: &[ScanReturn], now: u64) -> Classified<'_> {
+        self.scan_hop.see(h.seq);
         self.angles.clear();
         self.ranges.clear();
         for r in returns {
@@ -261,6 +271,18 @@ mod tests {
         assert_eq!(hd.alarm, 1, "{hd:?}");
         assert!(hd.nearest_m[..hd.sectors as usize].iter().any(|&m| m < 2.5));
         assert_eq!(s.scans(), 4);
+    }
+
+    /// Issue 23, the soak: a scan overwritten in the classifier's subscriber buffer is counted
+    /// as dropped on the hop from the driver.
+    #[test]
+    fn scans_that_never_reached_the_classifier_are_counted_dropped() {
+        let mut s = step();
+        let (h, r) = wall();
+        for seq in [40, 41, 45] {
+            s.scan(&ScanHeader { seq, ..h }, &r, 10 * S);
+        }
+        assert_eq!((s.scan_hop().received(), s.scan_hop().dropped()), (3, 3));
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! - a message with a non-finite number is refused where it arrives ([`MapStep::odom`]) and never
 //!   replaces the last good one, so it ages into stale odometry instead of moving the memories.
 
+use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{LidarMount, MountTransform, NonFiniteOdometry, check_odometry, pose2};
 use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
 
@@ -47,6 +48,7 @@ pub struct MapStep {
     odom_max_age_ns: u64,
     odom: Option<Odometry>,
     seq: u64,
+    points_hop: Hop,
 }
 
 impl MapStep {
@@ -59,6 +61,7 @@ impl MapStep {
             odom_max_age_ns,
             odom: None,
             seq: 0,
+            points_hop: Hop::new(),
         }
     }
 
@@ -79,6 +82,12 @@ impl MapStep {
         self.seq
     }
 
+    /// The revolutions taken from `lidar/points` and those that never reached the mapper (gaps
+    /// in their sequence: overwritten in the subscriber's buffer while it was busy).
+    pub fn points_hop(&self) -> &Hop {
+        &self.points_hop
+    }
+
     /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
     /// finite.
     pub fn odom(&mut self, o: &Odometry) -> Result<(), NonFiniteOdometry> {
@@ -89,6 +98,7 @@ impl MapStep {
 
     /// Maps the revolution `points` (with its header) that arrived at `now`.
     pub fn revolution(&mut self, h: &PointsHeader, points: &[Point], now: u64) -> Mapped {
+        self.points_hop.see(h.seq);
         let (input, status) = match self.odom {
             None => (OdomInput::Missing, map_status::ODOM_MISSING),
             Some(o) if now.saturating_sub(o.rx_mono_ns) > self.odom_max_age_ns => {
@@ -211,6 +221,19 @@ mod tests {
             1
         );
         assert_eq!(step.maps(), 2);
+    }
+
+    /// Issue 23, the soak: a revolution overwritten in the mapper's subscriber buffer is counted
+    /// as dropped on the hop from the driver.
+    #[test]
+    fn revolutions_that_never_reached_the_mapper_are_counted_dropped() {
+        let mut step = MapStep::new(MapperParams::default(), S / 2);
+        for seq in [3, 4, 7, 8] {
+            step.revolution(&points_header(seq), &[], 10 * S);
+        }
+        let hop = step.points_hop();
+        assert_eq!((hop.received(), hop.dropped()), (4, 2));
+        assert_eq!(step.maps(), 4);
     }
 
     #[test]

@@ -20,6 +20,7 @@
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
@@ -152,6 +153,7 @@ pub struct Pilot {
     seq: u64,
     /// Since when the map has held no route to the goal (monotonic ns).
     no_route_since: Option<u64>,
+    map_hop: Hop,
 }
 
 impl Pilot {
@@ -167,6 +169,7 @@ impl Pilot {
             classes: Vec::new(),
             seq: 0,
             no_route_since: None,
+            map_hop: Hop::new(),
         }
     }
 
@@ -193,6 +196,12 @@ impl Pilot {
     /// Commands numbered so far.
     pub fn commands(&self) -> u64 {
         self.seq
+    }
+
+    /// The maps taken from `map/plan` and those that never reached the planner (gaps in their
+    /// sequence: overwritten in the subscriber's buffer while it was busy).
+    pub fn map_hop(&self) -> &Hop {
+        &self.map_hop
     }
 
     /// Takes the latest odometry; refuses (and keeps the previous one) when a number is not
@@ -235,6 +244,7 @@ impl Pilot {
         classes: impl IntoIterator<Item = u8>,
         now: u64,
     ) -> Decision {
+        self.map_hop.see(header.seq);
         self.classes.clear();
         self.classes.extend(classes);
         let grid = GridSpec {

@@ -52,6 +52,9 @@ pub struct Stats {
     pub revolutions: u64,
     /// Points in them.
     pub points: u64,
+    /// Datagrams the kernel dropped before the driver read them (its socket's receive buffer
+    /// was full), as the socket last reported it; `None` for a capture.
+    pub kernel_drops: Option<u64>,
     last_report: Option<Instant>,
     revolutions_at_report: u64,
     points_at_report: u64,
@@ -88,6 +91,12 @@ impl Driver {
     /// The counters.
     pub fn stats(&self) -> &Stats {
         &self.stats
+    }
+
+    /// Takes the sockets' count of datagrams the kernel dropped (see
+    /// [`crate::udp::UdpSource::kernel_drops`]), for the reports.
+    pub fn set_kernel_drops(&mut self, dropped: Option<u64>) {
+        self.stats.kernel_drops = dropped;
     }
 
     /// What a datagram of `len` bytes sent to `port` is. A socket already tells the ports
@@ -216,26 +225,30 @@ impl Driver {
     }
 
     /// Every `interval`: logs the rates since the last report and returns the one-line status
-    /// for systemd; `None` between reports.
+    /// for systemd; `None` between reports. `kernel_drops` is asked for the socket's count of
+    /// datagrams the kernel dropped (see [`Driver::set_kernel_drops`]) when a report is due.
     pub fn report_if_due(
         &mut self,
         now: Instant,
         interval: Duration,
         faults: &Faults,
+        kernel_drops: impl FnOnce() -> Option<u64>,
     ) -> Option<String> {
         let last = *self.stats.last_report.get_or_insert(now);
         let dt = now.saturating_duration_since(last);
         if dt < interval {
             return None;
         }
+        self.set_kernel_drops(kernel_drops());
         let s = &mut self.stats;
         let secs = dt.as_secs_f64().max(1e-9);
         let revs_per_s = (s.revolutions - s.revolutions_at_report) as f64 / secs;
-        let foreign = foreign_text(s);
+        let foreign = foreign_text(s) + &kernel_text(s);
         tracing::info!(
             packets = s.data_packets,
             revolutions = s.revolutions,
             foreign = s.foreign,
+            kernel_drops = s.kernel_drops,
             "{revs_per_s:.1} revolutions/s, {:.0} points/s, {:.0} packets/s; position packets {}; \
              other traffic {}{foreign}; faults: {}",
             (s.points - s.points_at_report) as f64 / secs,
@@ -265,8 +278,10 @@ impl Driver {
             position_packets = s.position_packets,
             other_traffic = s.other_traffic,
             foreign = s.foreign,
-            "{what}{}; faults: {}",
+            kernel_drops = s.kernel_drops,
+            "{what}{}{}; faults: {}",
             foreign_text(s),
+            kernel_text(s),
             faults.summary()
         );
     }
@@ -279,6 +294,14 @@ fn foreign_text(s: &Stats) -> String {
             format!(", {} datagrams from foreign senders (last {a})", s.foreign)
         }
         _ => String::new(),
+    }
+}
+
+/// `, N datagrams dropped by the kernel (receive buffer full)` when the driver reads a socket.
+fn kernel_text(s: &Stats) -> String {
+    match s.kernel_drops {
+        Some(n) => format!(", {n} datagrams dropped by the kernel (receive buffer full)"),
+        None => String::new(),
     }
 }
 
@@ -347,16 +370,21 @@ mod tests {
         let t0 = Instant::now();
         let every = Duration::from_secs(1);
         assert!(
-            d.report_if_due(t0, every, &faults).is_none(),
+            d.report_if_due(t0, every, &faults, || None).is_none(),
             "first call starts the clock"
         );
         let t1 = t0 + every;
-        let quiet = d.report_if_due(t1, every, &faults).expect("due");
+        let quiet = d.report_if_due(t1, every, &faults, || None).expect("due");
         assert!(!quiet.contains("foreign"), "{quiet}");
         for port in [4000, 4001, 4002] {
             d.on_foreign(SocketAddr::from(([10, 0, 0, 9], port)), t1, &mut faults);
         }
-        let status = d.report_if_due(t1 + every, every, &faults).expect("due");
+        let status = d.report_if_due(t1 + every, every, &faults, || Some(12));
+        let status = status.expect("due");
+        assert!(
+            status.contains("12 datagrams dropped by the kernel (receive buffer full)"),
+            "{status}"
+        );
         assert!(
             status.contains("3 datagrams from foreign senders (last 10.0.0.9:4002)"),
             "{status}"

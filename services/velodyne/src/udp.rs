@@ -118,6 +118,17 @@ impl UdpSource {
         Ok(v.max(0) as usize)
     }
 
+    /// Datagrams the kernel dropped on these sockets because their receive buffer was full —
+    /// the hop from the sensor to the driver (the `drops` column of `/proc/net/udp` and
+    /// `/proc/net/udp6` for the sockets' inodes). `None` where `/proc` does not tell.
+    pub fn kernel_drops(&self) -> Option<u64> {
+        let inodes: Vec<u64> = (self.fds().into_iter()).filter_map(inode).collect();
+        let tables = ["/proc/net/udp", "/proc/net/udp6"].map(std::fs::read_to_string);
+        (tables.iter().flatten())
+            .filter_map(|t| drops_of(t, &inodes))
+            .reduce(|a, b| a + b)
+    }
+
     /// The file descriptors to wait on: the data socket, then the position socket if any.
     pub fn fds(&self) -> Vec<RawFd> {
         let mut v = vec![self.data.as_raw_fd()];
@@ -201,6 +212,28 @@ impl UdpSource {
     }
 }
 
+/// The inode of the socket `fd`, as `/proc/net/udp` names it.
+fn inode(fd: RawFd) -> Option<u64> {
+    // SAFETY: fstat writes one `stat` through a valid pointer for a descriptor we own.
+    let mut st: libc::stat = unsafe { std::mem::zeroed() };
+    (unsafe { libc::fstat(fd, &mut st) } == 0).then_some(st.st_ino)
+}
+
+/// The summed `drops` column of the rows of a `/proc/net/udp` table whose inode is one of
+/// `inodes`; `None` when no row is.
+pub fn drops_of(table: &str, inodes: &[u64]) -> Option<u64> {
+    // sl local rem st tx:rx tr:when retrnsmt uid timeout inode ref pointer drops
+    (table.lines().skip(1))
+        .filter_map(|row| {
+            let cols: Vec<&str> = row.split_whitespace().collect();
+            let ino: u64 = cols.get(9)?.parse().ok()?;
+            inodes
+                .contains(&ino)
+                .then(|| cols.get(12)?.parse::<u64>().ok())?
+        })
+        .reduce(|a, b| a + b)
+}
+
 fn set_recv_buffer(socket: &UdpSocket, bytes: usize) -> io::Result<()> {
     let v = libc::c_int::try_from(bytes).unwrap_or(libc::c_int::MAX);
     // SAFETY: setsockopt reads one c_int through a valid pointer on a socket we own.
@@ -223,6 +256,46 @@ fn set_recv_buffer(socket: &UdpSocket, bytes: usize) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 23, the soak: the hop from the sensor to the driver has a drop counter too — the
+    /// datagrams the kernel threw away while the socket's buffer was full.
+    #[test]
+    fn datagrams_the_kernel_dropped_on_a_full_buffer_are_counted() {
+        let cfg = VelodyneConfig {
+            bind_address: IpAddr::from([127, 0, 0, 1]),
+            data_port: 0,
+            recv_buffer_bytes: 4096,
+            ..VelodyneConfig::default()
+        };
+        let src = UdpSource::bind_ports(&cfg, None).expect("bind");
+        let Some(before) = src.kernel_drops() else {
+            println!("SKIP datagrams_the_kernel_dropped…: /proc/net/udp does not list the socket");
+            return;
+        };
+        assert_eq!(before, 0);
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("tx");
+        let to = src.data_addr().expect("addr");
+        // nobody reads: a buffer of a few kB holds a few of them, the kernel drops the rest
+        for _ in 0..200 {
+            tx.send_to(&[0u8; 1206], to).expect("send");
+        }
+        let dropped = src.kernel_drops().expect("still listed");
+        assert!((100..=200).contains(&dropped), "{dropped} dropped of 200");
+    }
+
+    #[test]
+    fn the_drops_column_is_read_for_the_sockets_inodes_only() {
+        let table = "\
+   sl  local_address rem_address   st tx_queue rx_queue tr tm->when retrnsmt   uid  timeout inode ref pointer drops
+  100: 0100007F:0940 00000000:0000 07 00000000:00000000 00:00000000 00000000  1000        0 4711 2 0000000000000000 17
+  101: 00000000:206C 00000000:0000 07 00000000:00000000 00:00000000 00000000  1000        0 4712 2 0000000000000000 3
+  102: 00000000:0044 00000000:0000 07 00000000:00000000 00:00000000 00000000     0        0 999 2 0000000000000000 50
+";
+        assert_eq!(drops_of(table, &[4711, 4712]), Some(20));
+        assert_eq!(drops_of(table, &[4711]), Some(17));
+        assert_eq!(drops_of(table, &[1]), None);
+        assert_eq!(drops_of("", &[4711]), None);
+    }
 
     #[test]
     fn receives_on_both_ports_and_filters_the_sender() {

@@ -69,6 +69,18 @@ fn without_a_goal_the_robot_stands() {
     assert_eq!((d.source_seq, d.source_stamp_ns), (101, 200 * MS));
 }
 
+/// Issue 23, the soak: a map overwritten in the planner's subscriber buffer is counted as
+/// dropped on the hop from the mapper.
+#[test]
+fn maps_that_never_reached_the_planner_are_counted_dropped() {
+    let t = 10 * S;
+    let mut p = driving(PlannerParams::default(), t);
+    for seq in [1, 2, 5] {
+        p.on_map(&header(seq), free(), t + seq * MS);
+    }
+    assert_eq!((p.map_hop().received(), p.map_hop().dropped()), (3, 2));
+}
+
 #[test]
 fn fresh_inputs_and_an_open_map_drive_towards_the_goal() {
     let t = 10 * S;

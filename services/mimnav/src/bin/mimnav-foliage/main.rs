@@ -31,6 +31,9 @@ impl ServiceCli for Args {
     }
 }
 
+/// How often the counters are logged.
+const STATS_INTERVAL: Duration = Duration::from_secs(10);
+
 fn main() -> ExitCode {
     service::main("mimnav-foliage", |_args: Args, config: Config| {
         run(&config).map(|()| ExitCode::SUCCESS)
@@ -57,7 +60,7 @@ fn run(config: &Config) -> Result<()> {
     let (_scan_guard, _tick) = (svc.on_data(&scans)?, svc.every(Duration::from_secs(1))?);
     let (mut alarm_on, mut alarmed, mut told_no_odom) = (false, 0u64, false);
     let (mut spent_us, mut since_report, mut last_scan) = (0u64, 0u64, Instant::now());
-    let mut health = svc.health();
+    let (mut health, mut last_report) = (svc.health(), Instant::now());
     svc.run(&mut health, "waiting for lidar/scan2d", |turn, h| {
         let _ = (odom_sub.heard(), scans.heard());
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
@@ -71,6 +74,7 @@ fn run(config: &Config) -> Result<()> {
                 }
             };
             let (started, now) = (Instant::now(), ipc::monotonic_ns());
+            let dropped = step.scan_hop().dropped();
             last_scan = started;
             let mut c = step.scan(sample.user_header(), sample.payload(), now);
             drop(sample);
@@ -102,9 +106,20 @@ fn run(config: &Config) -> Result<()> {
                 h.faults.record("publish_failed", turn.now, e);
             }
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
-            h.sd.status(match alarm_on {
-                true => "classifying; alarm: an obstacle that is not foliage",
-                false => "classifying; no alarm",
+            let lost = step.scan_hop().dropped() - dropped;
+            if lost > 0 {
+                let what = format!(
+                    "{lost} scans on {} never reached the classifier (overwritten while it was busy)",
+                    topics::LIDAR_SCAN2D
+                );
+                h.faults.record("dropped_scans", turn.now, what);
+            }
+            let dropped = step.scan_hop().dropped();
+            h.sd.status(&match alarm_on {
+                true => format!(
+                    "classifying; alarm: an obstacle that is not foliage; {dropped} scans dropped"
+                ),
+                false => format!("classifying; no alarm; {dropped} scans dropped"),
             });
         }
         h.sd.silent(
@@ -113,12 +128,32 @@ fn run(config: &Config) -> Result<()> {
             Duration::from_secs(1),
             "no scan on lidar/scan2d",
         );
+        if last_report.elapsed() >= STATS_INTERVAL {
+            let (hop, faults) = (step.scan_hop(), h.faults.summary());
+            tracing::info!(
+                scans = step.scans(),
+                alarmed,
+                dropped = hop.dropped(),
+                "classifying; {}: {}; faults: {faults}",
+                topics::LIDAR_SCAN2D,
+                hop.describe("scans")
+            );
+            last_report = Instant::now();
+        }
         if since_report >= 100 {
             let (scans, mean_us) = (step.scans(), spent_us / since_report);
             tracing::debug!(scans, alarmed, mean_us, "classifier time per scan");
             (spent_us, since_report) = (0, 0);
         }
     })?;
-    tracing::info!(scans = step.scans(), alarmed, "foliage classifier stopped");
+    let hop = step.scan_hop();
+    tracing::info!(
+        scans = step.scans(),
+        alarmed,
+        dropped = hop.dropped(),
+        "foliage classifier stopped; {}: {}",
+        topics::LIDAR_SCAN2D,
+        hop.describe("scans")
+    );
     Ok(())
 }

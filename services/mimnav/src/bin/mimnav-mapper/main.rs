@@ -76,9 +76,17 @@ fn run(config: &Config) -> Result<()> {
                 }
             };
             let (started, now) = (Instant::now(), ipc::monotonic_ns());
-            let rx = sample.user_header().rx_mono_ns;
+            let (rx, dropped) = (sample.user_header().rx_mono_ns, step.points_hop().dropped());
             let mut mapped = step.revolution(sample.user_header(), sample.payload(), now);
             drop(sample);
+            let lost = step.points_hop().dropped() - dropped;
+            if lost > 0 {
+                let what = format!(
+                    "{lost} revolutions on {} never reached the mapper (overwritten while it was busy)",
+                    topics::LIDAR_POINTS
+                );
+                h.faults.record("dropped_revolutions", turn.now, what);
+            }
             if mapped.header.status == map_status::ODOM_STALE {
                 h.faults.record("stale_odom", turn.now, mapped.describe());
             }
@@ -112,15 +120,31 @@ fn run(config: &Config) -> Result<()> {
                 "map"
             );
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
-            h.sd.status(mapped.describe()); // sent only when it changes
+            // sent only when it changes
+            let dropped = step.points_hop().dropped();
+            h.sd.status(&format!("{}; {dropped} revolutions dropped", mapped.describe()));
         }
         if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
             let mean_processing_us = spent_us / since_report;
-            let (maps, faults) = (step.maps(), h.faults.summary());
-            tracing::info!(maps, mean_processing_us, "mapping; faults: {faults}");
+            let (maps, faults, hop) = (step.maps(), h.faults.summary(), step.points_hop());
+            tracing::info!(
+                maps,
+                mean_processing_us,
+                dropped = hop.dropped(),
+                "mapping; {}: {}; faults: {faults}",
+                topics::LIDAR_POINTS,
+                hop.describe("revolutions")
+            );
             (spent_us, since_report, last_report) = (0, 0, Instant::now());
         }
     })?;
-    tracing::info!(maps = step.maps(), "mapper stopped");
+    let hop = step.points_hop();
+    tracing::info!(
+        maps = step.maps(),
+        dropped = hop.dropped(),
+        "mapper stopped; {}: {}",
+        topics::LIDAR_POINTS,
+        hop.describe("revolutions")
+    );
     Ok(())
 }

@@ -31,6 +31,9 @@ impl ServiceCli for Args {
     }
 }
 
+/// How often the counters are logged.
+const STATS_INTERVAL: Duration = Duration::from_secs(10);
+
 fn main() -> ExitCode {
     service::main("mimnav-planner", |_args: Args, config: Config| {
         run(&config).map(|()| ExitCode::SUCCESS)
@@ -78,7 +81,9 @@ impl Sender {
             );
             self.last_status = d.status;
         }
-        h.sd.status(&d.describe()); // sent only when it changes
+        // sent only when it changes
+        let dropped = pilot.map_hop().dropped();
+        h.sd.status(&format!("{}; {dropped} maps dropped", d.describe()));
     }
 }
 
@@ -98,7 +103,7 @@ fn run(config: &Config) -> Result<()> {
     // a missed deadline on the map is stale input at once, not at the next tick
     let plan_guard = svc.on_deadline(&plan_sub, Duration::from_secs_f64(p.map_max_age_s))?;
     let _tick = svc.every(Duration::from_millis(100))?;
-    let mut health = svc.health();
+    let (mut health, mut last_report) = (svc.health(), std::time::Instant::now());
     svc.run(&mut health, "waiting for map/plan", |turn, h| {
         let _ = (odom_sub.heard(), goal_sub.heard(), plan_sub.heard());
         let now = ipc::monotonic_ns();
@@ -123,8 +128,17 @@ fn run(config: &Config) -> Result<()> {
         let mut planned = false;
         while let Ok(Some(sample)) = plan_sub.receive() {
             let (header, arrived) = (*sample.user_header(), ipc::monotonic_ns());
+            let dropped = pilot.map_hop().dropped();
             let d = pilot.on_map(&header, sample.payload().iter().map(|c| c.class), now);
             drop(sample);
+            let lost = pilot.map_hop().dropped() - dropped;
+            if lost > 0 {
+                let what = format!(
+                    "{lost} maps on {} never reached the planner (overwritten while it was busy)",
+                    topics::MAP_PLAN
+                );
+                h.faults.record("dropped_maps", turn.now, what);
+            }
             planned = true;
             if let Some(stale) = d.stale {
                 h.faults.record("stale_input", turn.now, stale.reason());
@@ -135,7 +149,25 @@ fn run(config: &Config) -> Result<()> {
             // no map for too long: keep the robot stopped, and say why
             sender.send(&mut pilot, &d, None, h);
         }
+        if last_report.elapsed() >= STATS_INTERVAL {
+            let (hop, faults) = (pilot.map_hop(), h.faults.summary());
+            tracing::info!(
+                commands = pilot.commands(),
+                dropped = hop.dropped(),
+                "planning; {}: {}; faults: {faults}",
+                topics::MAP_PLAN,
+                hop.describe("maps")
+            );
+            last_report = std::time::Instant::now();
+        }
     })?;
-    tracing::info!(commands = pilot.commands(), "planner stopped");
+    let hop = pilot.map_hop();
+    tracing::info!(
+        commands = pilot.commands(),
+        dropped = hop.dropped(),
+        "planner stopped; {}: {}",
+        topics::MAP_PLAN,
+        hop.describe("maps")
+    );
     Ok(())
 }

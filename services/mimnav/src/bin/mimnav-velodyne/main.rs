@@ -124,7 +124,12 @@ fn run(config: &Config) -> Result<()> {
                 }
             }
         }
-        if let Some(status) = wired.0.report_if_due(turn.now, interval, &h.faults) {
+        // the kernel's drops are read only when a report is due: it reads /proc/net/udp
+        let kernel_drops = || source.kernel_drops();
+        if let Some(status) = wired
+            .0
+            .report_if_due(turn.now, interval, &h.faults, kernel_drops)
+        {
             h.sd.status(&status);
         }
         h.sd.silent(
@@ -135,6 +140,7 @@ fn run(config: &Config) -> Result<()> {
         );
     })?;
     // the foreign senders' count and the last one's address are in the summary
+    wired.0.set_kernel_drops(source.kernel_drops());
     wired.0.log_summary("stopped", &health.faults);
     Ok(())
 }

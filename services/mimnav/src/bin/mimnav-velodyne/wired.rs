@@ -90,7 +90,11 @@ pub fn replay(
                 let kind = wired.0.kind(d.payload.len(), d.dst_port);
                 let at = || format!("{} byte offset {}", path.display(), d.offset);
                 wired.push(d.payload, kind, d.ts_ns, h, &at);
-                if let Some(status) = wired.0.report_if_due(Instant::now(), interval, &h.faults) {
+                if let Some(status) =
+                    wired
+                        .0
+                        .report_if_due(Instant::now(), interval, &h.faults, || None)
+                {
                     h.sd.status(&status);
                 }
             }

@@ -1,0 +1,112 @@
+//! Counting what one hop of the pipeline lost: the samples of an input topic a service never
+//! saw, from the gaps in their sequence numbers (issue 23, the soak).
+//!
+//! Every topic's publisher numbers its samples 0, 1, 2, … (`seq` in each header). A subscriber's
+//! buffer is small and overflows safely (the oldest sample goes, see [`crate::ipc`]), so a
+//! service that falls behind loses samples without an error anywhere; the next sample it takes
+//! then skips numbers. [`Hop`] counts those skipped numbers. The first sample sets the start (a
+//! service started after its publisher did not lose what was sent before it subscribed), and a
+//! sequence that goes back means the publisher restarted: counted as a restart, not a loss.
+
+use std::fmt;
+
+/// The received and dropped samples of one input topic.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Hop {
+    received: u64,
+    dropped: u64,
+    restarts: u64,
+    last: Option<u64>,
+}
+
+impl Hop {
+    /// A hop that has seen nothing yet.
+    pub fn new() -> Self {
+        Hop::default()
+    }
+
+    /// Takes the sample numbered `seq`; returns how many samples before it were never seen
+    /// (0 when none).
+    pub fn see(&mut self, seq: u64) -> u64 {
+        let gap = match self.last {
+            Some(last) if seq > last => seq - last - 1,
+            Some(_) => {
+                self.restarts += 1;
+                0
+            }
+            None => 0,
+        };
+        self.received += 1;
+        self.dropped += gap;
+        self.last = Some(seq);
+        gap
+    }
+
+    /// Samples taken.
+    pub fn received(&self) -> u64 {
+        self.received
+    }
+
+    /// Samples never seen: the gaps in the sequence.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Times the sequence went back (its publisher restarted).
+    pub fn restarts(&self) -> u64 {
+        self.restarts
+    }
+
+    /// `N in, M dropped` (with the restarts, if any), naming the samples `what` (plural).
+    pub fn describe<'a>(&'a self, what: &'a str) -> impl fmt::Display + 'a {
+        Described(self, what)
+    }
+}
+
+struct Described<'a>(&'a Hop, &'a str);
+
+impl fmt::Display for Described<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Described(h, what) = self;
+        write!(f, "{} {what} in, {} dropped", h.received, h.dropped)?;
+        if h.restarts > 0 {
+            write!(f, ", {} publisher restarts", h.restarts)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_gap_in_the_sequence_is_counted_as_dropped_samples() {
+        let mut h = Hop::new();
+        assert_eq!([h.see(0), h.see(1), h.see(4), h.see(5)], [0, 0, 2, 0]);
+        assert_eq!((h.received(), h.dropped(), h.restarts()), (4, 2, 0));
+        assert_eq!(h.describe("maps").to_string(), "4 maps in, 2 dropped");
+    }
+
+    #[test]
+    fn a_late_start_is_no_loss_and_a_restart_is_counted_apart() {
+        let mut h = Hop::new();
+        // subscribed while the publisher was at 100
+        assert_eq!(h.see(100), 0);
+        // the publisher restarted from 0
+        assert_eq!((h.see(0), h.see(1)), (0, 0));
+        assert_eq!((h.received(), h.dropped(), h.restarts()), (3, 0, 1));
+        assert_eq!(
+            h.describe("scans").to_string(),
+            "3 scans in, 0 dropped, 1 publisher restarts"
+        );
+    }
+
+    #[test]
+    fn the_same_number_twice_is_a_restart_and_the_largest_number_does_not_overflow() {
+        let mut h = Hop::new();
+        h.see(u64::MAX);
+        assert_eq!(h.see(u64::MAX), 0);
+        assert_eq!(h.restarts(), 1);
+    }
+}
