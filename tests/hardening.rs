@@ -1,6 +1,6 @@
 //! Issue 23's defects found under bad input and faults, one regression test each, named after the
 //! defect: the driver's watchdog on a looped replay, broken pipes, position-port garbage, foreign
-//! senders, revolutions lost in a fast replay.
+//! senders, revolutions lost in a fast replay; and the soak's per-hop drop counters.
 
 use std::net::{Ipv4Addr, UdpSocket};
 use std::os::unix::net::UnixDatagram;
@@ -393,14 +393,10 @@ fn position_port_garbage_is_counted_and_rate_limited() {
 }
 
 /// Datagrams the kernel dropped at the loopback UDP socket bound to `port` (a full receive
-/// buffer): the last column of its line in /proc/net/udp.
+/// buffer), read as `mimnav soak` reads them.
 fn udp_drops(port: u16) -> Option<u64> {
     let table = std::fs::read_to_string("/proc/net/udp").ok()?;
-    let local = format!("0100007F:{port:04X}");
-    table.lines().find_map(|l| {
-        let f: Vec<&str> = l.split_whitespace().collect();
-        (f.get(1) == Some(&local.as_str())).then(|| f.last()?.parse().ok())?
-    })
+    mimnav_velodyne::udp::drops_on_port(&table, port)
 }
 
 /// Issue 23 item 6: datagrams from a sender other than `allowed_source` were reported only at
@@ -517,4 +513,99 @@ fn lost_revolutions_counted_over_repeated_fast_replays() {
             expected.len()
         );
     }
+}
+
+/// Issue 23, the soak: every hop exports its drop counter. A mapper that cannot keep up (here:
+/// stopped while the driver replays a capture as fast as it can) loses revolutions in its
+/// subscriber buffer; it counts them from the gaps in their sequence and says so in `STATUS=`,
+/// in a warning and in its closing statistics.
+#[test]
+fn a_mapper_that_falls_behind_counts_the_revolutions_it_lost() {
+    let dir = Scratch::new("mapper-drops");
+    let manager = FakeManager::listen(&dir.0);
+    let domain = PrivateDomain::new("e2e-mapper-drops");
+    let mut mapper = Command::new(bin("mimnav-mapper"));
+    mapper
+        .arg("--config")
+        .arg(shipped_config())
+        .args(domain.set_args())
+        .env("MIMNAV_LOG", "info")
+        .env("NOTIFY_SOCKET", &manager.path)
+        .env_remove("WATCHDOG_USEC")
+        .stderr(Stdio::piped());
+    let mut mapper = Proc::start(&mut mapper);
+    let stderr = lines_of(mapper.0.stderr.take().expect("piped stderr"));
+    let mut seen = Vec::new();
+    assert!(
+        crate::util::wait_until(
+            &stderr,
+            |l| l.contains("topics open"),
+            Duration::from_secs(10),
+            &mut seen
+        ),
+        "mapper ready: {seen:#?}"
+    );
+    // the driver replays the capture in a loop at its own pace; the test watches the maps
+    let node = ipc::node(&domain.config(), "e2e-mapper-drops").expect("node");
+    let maps = ipc::plan_subscriber(&node).expect("map/plan");
+    let mut replay = Proc::start(
+        driver(&domain)
+            .arg("--pcap")
+            .arg(bundled_capture())
+            .args(["--set", "velodyne.replay_loop=true"])
+            .stderr(Stdio::null()),
+    );
+    let until = Instant::now() + Duration::from_secs(20);
+    let mut mapped = 0;
+    while mapped < 3 {
+        assert!(Instant::now() < until, "no maps within 20 s");
+        while maps.receive().expect("receive").is_some() {
+            mapped += 1;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    // the mapper stalls for a second (ten revolutions): its buffer keeps the last two
+    let pid = mapper.0.id() as libc::pid_t;
+    // SAFETY: kill(2) on the pid of a child this test started and has not reaped.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGSTOP) }, 0);
+    std::thread::sleep(Duration::from_secs(1));
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGCONT) }, 0);
+    std::thread::sleep(Duration::from_millis(500));
+    let _ = replay.terminate(Duration::from_secs(2));
+    let status = mapper.terminate(Duration::from_secs(2));
+    assert!(status.is_some_and(|s| s.success()), "{status:?}");
+    let mut lines = seen;
+    while let Ok(l) = stderr.recv_timeout(Duration::from_millis(300)) {
+        lines.push(l);
+    }
+    let got = manager.finish();
+    let closing = (lines.iter())
+        .find(|l| l.contains("mapper stopped"))
+        .unwrap_or_else(|| panic!("a closing line: {lines:#?}"));
+    let field = |name: &str| -> u64 {
+        (closing.split_whitespace())
+            .find_map(|w| w.strip_prefix(name)?.parse().ok())
+            .unwrap_or_else(|| panic!("{name} in {closing}"))
+    };
+    let (maps, dropped) = (field("maps="), field("dropped="));
+    println!("{maps} maps, {dropped} revolutions dropped");
+    // about eight of the ten revolutions of the stalled second were overwritten
+    assert!(
+        maps >= 5 && (3..=12).contains(&dropped),
+        "{maps} maps, {dropped} dropped: {closing}"
+    );
+    assert!(
+        closing.contains(&format!("in, {dropped} dropped")),
+        "{closing}"
+    );
+    let want = format!("{dropped} revolutions dropped");
+    assert!(
+        (got.iter()).any(|(_, m)| m.starts_with("STATUS=") && m.contains(&want)),
+        "in STATUS=: {got:#?}"
+    );
+    assert!(
+        (lines.iter()).any(|l| l.contains("WARN") && l.contains("never reached the mapper")),
+        "a warning: {lines:#?}"
+    );
 }

@@ -12,40 +12,25 @@
 //! figures. Exit status: 0 when the goal was reached, 3 on contact or timeout, 130 when
 //! interrupted.
 //!
-//! Stopping (issue 23, item 9). The children never outlive the demo: each is started with a
-//! parent-death signal (SIGTERM, see [`crate::procs`]), so even a SIGKILL of the demo ends them
-//! and the simulated robot with them. They run in process groups of their own, so a Ctrl-C on the
-//! terminal reaches the demo alone, which stops them in an order that halts the robot first: on
-//! SIGINT or SIGTERM (and on any error) it stops the planner, commands zero velocity on `cmd_vel`
-//! itself and waits (up to [`HALT_WITHIN`]) until the odometry shows the robot at rest, then
-//! stops the simulator, then the driver, mapper and classifier, and waits for each.
+//! Stopping (issue 23, item 9): the children never outlive the demo, and on SIGINT or SIGTERM
+//! (and on any error) the robot is halted first ([`crate::stack`]).
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
-use mimnav_shared::ipc::{self, PrivateDomain};
+use mimnav_shared::ipc;
 use mimnav_shared::pose::{Pose2Ext, pose2};
-use mimnav_shared::topics::{
-    Goal, MapHeader, Odometry, VelocityCommand, command_flags, command_status,
-};
+use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
 use mimnav_sim::world::WorldFile;
 
-use crate::procs::{Options, Service, service_binary};
-
-/// How long the demo waits, once interrupted, for the odometry to show the robot at rest before
-/// it stops the simulator anyway.
-pub const HALT_WITHIN: Duration = Duration::from_secs(3);
-/// How long a child has to end after SIGTERM before it is killed.
-const STOP_GRACE: Duration = Duration::from_secs(2);
-/// Below these speeds (m/s, rad/s) the robot is at rest.
-const AT_REST: (f32, f32) = (1e-3, 1e-3);
+use crate::stack::Stack;
 
 /// Arguments of `mimnav demo`.
 #[derive(Debug, clap::Args)]
@@ -89,14 +74,6 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
-/// A loopback UDP port nobody uses right now.
-fn free_port() -> Result<u16> {
-    let s = std::net::UdpSocket::bind("127.0.0.1:0").context("cannot find a free UDP port")?;
-    Ok(s.local_addr()
-        .context("cannot find a free UDP port")?
-        .port())
-}
-
 /// Runs the demo.
 pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Result<ExitCode> {
     let mut sets = sets.to_vec();
@@ -109,30 +86,15 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         .clone()
         .unwrap_or_else(|| config.sim.world_path(&config.dir()));
     let world = WorldFile::load(&world_path)?;
-    let domain = PrivateDomain::new("demo");
-    let local = domain.apply(config.clone());
-    let (data_port, position_port) = (free_port()?, free_port()?);
-
-    let mut child_args: Vec<String> = Vec::new();
-    if let Some(p) = config_path {
-        child_args.extend(["--config".into(), p.display().to_string()]);
-    }
-    for s in &sets {
-        child_args.extend(["--set".into(), s.clone()]);
-    }
-    child_args.extend(domain.set_args());
-    for s in [
-        format!("velodyne.input={}", toml_quote("udp")),
-        format!("velodyne.bind_address={}", toml_quote("127.0.0.1")),
-        format!("velodyne.data_port={data_port}"),
-        format!("velodyne.position_port={position_port}"),
-        format!("sim.udp_target={}", toml_quote("127.0.0.1")),
-        format!("log.level={}", toml_quote(&args.log)),
-        format!("latency.realtime_priority={}", args.realtime_priority),
-    ] {
-        child_args.extend(["--set".into(), s]);
-    }
-
+    let stack = Stack::new(
+        "demo",
+        &config,
+        config_path,
+        &sets,
+        &args.log,
+        args.realtime_priority,
+    )?;
+    let (local, data_port) = (stack.local.clone(), stack.data_port);
     let node = ipc::node(&local, "mimnav-demo")?;
     let plans = ipc::plan_subscriber(&node)?;
     let commands = ipc::cmd_vel_subscriber(&node)?;
@@ -151,41 +113,10 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         config.robot.name,
         config.robot.radius_m
     );
-    // started from this (the main) thread: their parent-death signal is tied to it
-    let own_group = Options {
-        own_process_group: true,
-        piped_stdout: false,
-    };
-    let mut children = Children::default();
-    for name in [
-        "mimnav-velodyne",
-        "mimnav-mapper",
-        "mimnav-foliage",
-        "mimnav-planner",
-    ] {
-        let s = Service::start_with(&service_binary(name)?, &child_args, own_group)?;
-        if name == "mimnav-planner" {
-            children.planner = Some(s);
-        } else {
-            children.others.push(s);
-        }
-    }
-    // the planner is up when it speaks (a stale-input stop every 100 ms while no map comes)
-    let until = Instant::now() + Duration::from_secs(10);
-    loop {
-        if commands.receive()?.is_some() {
-            break;
-        }
-        if let Some((name, status)) = children.exited_early() {
-            bail!("{name} exited at start ({status}); see its messages above");
-        }
-        if Instant::now() > until {
-            bail!("the planner did not publish on cmd_vel within 10 s");
-        }
-        if !ipc::sleep(&node, Duration::from_millis(20)) {
-            // nothing moves yet: dropping the children stops them
-            return Ok(ExitCode::from(130));
-        }
+    let mut children = stack.start_services()?;
+    if !children.wait_for_planner(&node, &commands)? {
+        // nothing moves yet: dropping the children stops them
+        return Ok(ExitCode::from(130));
     }
     let goal = Goal {
         seq: 0,
@@ -196,20 +127,12 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     };
     goal_pub.publish(goal)?;
 
-    let mut sim_args = child_args.clone();
-    sim_args.extend(["--world".into(), world_path.display().to_string()]);
+    let mut sim_args = vec!["--world".into(), world_path.display().to_string()];
     sim_args.push("--json".into());
     if let Some(s) = args.seed {
         sim_args.extend(["--seed".into(), s.to_string()]);
     }
-    children.sim = Some(Service::start_with(
-        &service_binary("mimnav-sim")?,
-        &sim_args,
-        Options {
-            piped_stdout: true,
-            ..own_group
-        },
-    )?);
+    stack.start_sim(&mut children, &sim_args)?;
     let started = Instant::now();
 
     let bar = indicatif::ProgressBar::new_spinner();
@@ -371,150 +294,4 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         ("goal_reached", true) => ExitCode::SUCCESS,
         _ => ExitCode::from(3),
     })
-}
-
-/// The demo's children. They stop in the order that halts the robot first — the planner, the
-/// simulator, then the rest — also when this value is dropped on an error.
-#[derive(Default)]
-struct Children {
-    // dropped in declaration order
-    planner: Option<Service>,
-    sim: Option<Service>,
-    others: Vec<Service>,
-}
-
-/// How the robot came to rest after an interruption.
-struct Halted {
-    /// The last odometry received after the stop command went out.
-    last: Option<Odometry>,
-    /// It showed the robot at rest.
-    at_rest: bool,
-    /// From the start of the halt (the signal) to the odometry at rest, or to giving up.
-    after: Duration,
-}
-
-impl Halted {
-    fn describe(&self) -> String {
-        let secs = self.after.as_secs_f64();
-        match (self.at_rest, &self.last) {
-            (true, Some(o)) => format!(
-                "interrupted: the robot stopped at ({:.2}, {:.2}) {secs:.2} s after the signal \
-                 (planner stopped, zero velocity commanded); services stopped",
-                o.x, o.y
-            ),
-            (false, Some(o)) => format!(
-                "interrupted: the robot was not at rest {secs:.2} s after the signal \
-                 (v {:.2} m/s, ω {:.2} rad/s at ({:.2}, {:.2})); the simulator was stopped anyway",
-                o.v, o.omega, o.x, o.y
-            ),
-            (_, None) => format!(
-                "interrupted: no odometry within {secs:.2} s of the signal; the simulator was \
-                 stopped anyway"
-            ),
-        }
-    }
-}
-
-impl Children {
-    /// A service that has exited, with its status (while starting, none should have).
-    fn exited_early(&mut self) -> Option<(String, std::process::ExitStatus)> {
-        self.planner
-            .iter_mut()
-            .chain(self.others.iter_mut())
-            .find_map(|s| s.exited().map(|e| (s.name().to_string(), e)))
-    }
-
-    /// The simulator has exited (or was never started).
-    fn sim_exited(&mut self) -> bool {
-        self.sim.as_mut().is_none_or(|s| s.exited().is_some())
-    }
-
-    /// Stops the planner (no more driving commands), then commands zero velocity on `cmd_vel`
-    /// every 100 ms until the odometry, published after the first of them, shows the robot at
-    /// rest, or [`HALT_WITHIN`] passes, or a second signal comes.
-    fn halt_robot(
-        &mut self,
-        node: &iceoryx2::prelude::Node<ipc::Svc>,
-        stop: &ipc::ValuePublisher<VelocityCommand>,
-        odom: &ipc::ValueSubscriber<Odometry>,
-    ) -> Halted {
-        let began = Instant::now();
-        if let Some(mut planner) = self.planner.take() {
-            planner.stop(STOP_GRACE);
-        }
-        let first_stop_ns = ipc::monotonic_ns();
-        let (mut seq, mut next_stop, mut last) = (0u64, began, None);
-        loop {
-            let now = Instant::now();
-            if now >= next_stop {
-                let cmd = VelocityCommand {
-                    seq,
-                    stamp_mono_ns: ipc::monotonic_ns(),
-                    status: command_status::NO_GOAL,
-                    ..VelocityCommand::default()
-                };
-                if let Err(e) = stop.publish(cmd) {
-                    tracing::warn!("cannot command the robot to stop: {e}");
-                }
-                (seq, next_stop) = (seq + 1, now + Duration::from_millis(100));
-            }
-            while let Ok(Some(o)) = odom.receive() {
-                if o.rx_mono_ns < first_stop_ns {
-                    continue;
-                }
-                last = Some(o);
-                if o.v.abs() < AT_REST.0 && o.omega.abs() < AT_REST.1 {
-                    return Halted {
-                        last,
-                        at_rest: true,
-                        after: began.elapsed(),
-                    };
-                }
-            }
-            if self.sim_exited()
-                || began.elapsed() > HALT_WITHIN
-                || !ipc::sleep(node, Duration::from_millis(5))
-            {
-                return Halted {
-                    last,
-                    at_rest: false,
-                    after: began.elapsed(),
-                };
-            }
-        }
-    }
-
-    /// Stops the simulator (if it still runs) and returns its exit status and its stdout.
-    fn stop_sim(&mut self) -> (Option<std::process::ExitStatus>, String) {
-        match self.sim.as_mut() {
-            Some(sim) => (sim.stop(STOP_GRACE), sim.read_stdout()),
-            None => (None, String::new()),
-        }
-    }
-
-    /// Stops the planner, then the driver, mapper and classifier together, and waits for each.
-    fn stop_rest(&mut self) {
-        if let Some(planner) = self.planner.as_mut() {
-            planner.stop(STOP_GRACE);
-        }
-        for s in &mut self.others {
-            s.terminate();
-        }
-        for s in &mut self.others {
-            s.stop(STOP_GRACE);
-        }
-    }
-}
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        // an early return or an error: the same order, without the stop command
-        if let Some(mut sim) = self.sim.take() {
-            if let Some(planner) = self.planner.as_mut() {
-                planner.stop(STOP_GRACE);
-            }
-            sim.stop(STOP_GRACE);
-        }
-        self.stop_rest();
-    }
 }

@@ -22,6 +22,8 @@ mod replay;
 mod score_map;
 mod sim;
 mod snapshot;
+mod soak;
+mod stack;
 mod worlds;
 
 use std::path::PathBuf;
@@ -60,6 +62,10 @@ enum Command {
     /// streaming UDP packets to the driver, drive from the world's start to its goal, write a PNG
     /// of the map with the driven path and print the figures (exit 0 when the goal is reached).
     Demo(demo::DemoArgs),
+    /// The stack as processes under a long or fast stream (issue 23): the simulator streams UDP
+    /// at --time-scale times real time for --seconds of sensor time while the robot patrols;
+    /// every revolution accounted for hop by hop, the services' memory sampled.
+    Soak(soak::SoakArgs),
     /// Reproduce the paper's Table I: the scenario worlds × the intensity map (adaptive and
     /// uniform inflation) and the two baselines × seeds, lock-step in-process; success rate,
     /// normalised trajectory length, F-score, trajectory plots.
@@ -107,6 +113,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => replay::run(&config, config_path.as_deref(), &cli.set, args),
         Command::Sim(args) => sim::run(config_path.as_deref(), &cli.set, args),
         Command::Demo(args) => demo::run(config_path.as_deref(), &cli.set, args),
+        Command::Soak(args) => soak::run(config_path.as_deref(), &cli.set, args),
         Command::ScoreMap(args) => score_map::run(&config, args),
         Command::Eval(args) => eval::run(&config, args),
         Command::Worlds(args) => worlds::run(&config, args),

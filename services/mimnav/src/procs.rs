@@ -116,6 +116,11 @@ impl Service {
         })
     }
 
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
     /// The binary's name.
     pub fn name(&self) -> &str {
         &self.name

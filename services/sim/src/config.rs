@@ -52,6 +52,10 @@ pub struct SimConfig {
     pub glass_specular_deg: f64,
     /// Lock-step: send one revolution, then wait for the stack's command before the next.
     pub lockstep: bool,
+    /// Streaming: how many times faster than real time the packets go out (1: as a VLP-16
+    /// sends them; 10: a revolution every 10 ms at 600 rpm, for soak tests). The sensor's and
+    /// the odometry's stamps stay in simulated time; commands expire on the host's clock.
+    pub time_scale: f64,
     /// In lock-step, how long to wait for the stack's command before going on without one, s.
     pub lockstep_timeout_s: f64,
     /// The goal counts as reached within this distance, metres.
@@ -73,6 +77,7 @@ impl Default for SimConfig {
             intensity_noise: 1.5,
             glass_specular_deg: 3.0,
             lockstep: false,
+            time_scale: 1.0,
             lockstep_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
             grass_blades: false,
@@ -94,6 +99,7 @@ impl SimConfig {
             600.0,
         );
         r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
+        r.check("sim.time_scale", self.time_scale, 0.1, 100.0);
         r.finish()
     }
 

@@ -234,6 +234,20 @@ pub fn drops_of(table: &str, inodes: &[u64]) -> Option<u64> {
         .reduce(|a, b| a + b)
 }
 
+/// The summed `drops` column of the rows of a `/proc/net/udp` table bound to local `port`;
+/// `None` when no row is (how an outside observer, such as `mimnav soak`, reads the driver's
+/// count).
+pub fn drops_on_port(table: &str, port: u16) -> Option<u64> {
+    (table.lines().skip(1))
+        .filter_map(|row| {
+            let cols: Vec<&str> = row.split_whitespace().collect();
+            let local = cols.get(1)?.rsplit_once(':')?.1;
+            let bound = u16::from_str_radix(local, 16).ok()?;
+            (bound == port).then(|| cols.get(12)?.parse::<u64>().ok())?
+        })
+        .reduce(|a, b| a + b)
+}
+
 fn set_recv_buffer(socket: &UdpSocket, bytes: usize) -> io::Result<()> {
     let v = libc::c_int::try_from(bytes).unwrap_or(libc::c_int::MAX);
     // SAFETY: setsockopt reads one c_int through a valid pointer on a socket we own.
@@ -295,6 +309,9 @@ mod tests {
         assert_eq!(drops_of(table, &[4711]), Some(17));
         assert_eq!(drops_of(table, &[1]), None);
         assert_eq!(drops_of("", &[4711]), None);
+        assert_eq!(drops_on_port(table, 0x206C), Some(3));
+        assert_eq!(drops_on_port(table, 2368), Some(17));
+        assert_eq!(drops_on_port(table, 9), None);
     }
 
     #[test]

@@ -59,12 +59,8 @@ pub fn run(
     let (mut stopped, mut waits_timed_out, mut valid_until) = (false, 0u64, 0u64);
     while sim.elapsed_s() < limit_s {
         let step = sim.step();
-        if !lockstep
-            && !svc.sleep_until(
-                &mut h,
-                anchor + Duration::from_nanos(step.send_ns - epoch_ns),
-            )
-        {
+        let due = Duration::from_nanos(step.send_ns - epoch_ns).div_f64(config.sim.time_scale);
+        if !lockstep && !svc.sleep_until(&mut h, anchor + due) {
             stopped = true;
             break;
         }
