@@ -182,6 +182,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
         sets.push(format!("robot.profile={}", toml_quote(r)));
     }
     sets.push(format!("sim.time_scale={}", args.time_scale));
+    // the robot patrols: reaching the goal or the world's time limit must not stop it
+    sets.push("sim.endless=true".into());
     let config = Config::resolve(config_path, &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
     let world_path = (args.world.clone()).unwrap_or_else(|| config.sim.world_path(&config.dir()));
     let world = WorldFile::load(&world_path)?;

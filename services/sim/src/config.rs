@@ -56,6 +56,10 @@ pub struct SimConfig {
     /// sends them; 10: a revolution every 10 ms at 600 rpm, for soak tests). The sensor's and
     /// the odometry's stamps stay in simulated time; commands expire on the host's clock.
     pub time_scale: f64,
+    /// Without an end: reaching the goal or the world's time limit does not end the episode,
+    /// the robot follows `cmd_vel` for as long as the simulator runs (a contact still stops
+    /// it). For soak tests, where the robot patrols.
+    pub endless: bool,
     /// In lock-step, how long to wait for the stack's command before going on without one, s.
     pub lockstep_timeout_s: f64,
     /// The goal counts as reached within this distance, metres.
@@ -78,6 +82,7 @@ impl Default for SimConfig {
             glass_specular_deg: 3.0,
             lockstep: false,
             time_scale: 1.0,
+            endless: false,
             lockstep_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
             grass_blades: false,

@@ -341,6 +341,9 @@ impl Sim {
             return;
         }
         self.path_length_m += (p.x() - before.pose.x()).hypot(p.y() - before.pose.y());
+        if self.settings.sim.endless {
+            return;
+        }
         if self.distance_to_goal() <= self.settings.sim.goal_tolerance_m {
             self.outcome = Outcome::GoalReached;
         } else if self.elapsed_s() > self.scene.time_limit_s {
