@@ -261,6 +261,11 @@ pub mod command_flags {
     /// the straight line, and with the `blocked` status it has stopped after
     /// `planner.no_route_stop_s` (as opposed to no feasible motion this instant).
     pub const NO_ROUTE: u8 = 2;
+    /// The robot is backing out: the dynamic window held it still (a long body beside glass or
+    /// a wall it could not turn away from) for `planner.recovery_after_s`, so it moves back
+    /// (v < 0) for `planner.recovery_s`; with the `blocked` status it has stopped after
+    /// `planner.recovery_max` tries without getting nearer the goal.
+    pub const BACKING_OUT: u8 = 4;
 }
 
 /// A velocity command for the base (REP-103: v forward, ω counter-clockwise).

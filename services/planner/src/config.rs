@@ -67,6 +67,18 @@ pub struct PlannerConfig {
     /// Distance from the body (its enclosing circle) to the nearest glass cell ahead at which
     /// the speed limit near glass ends, m (0: no limit).
     pub glass_slow_within_m: f64,
+    /// A robot held still by the dynamic window (every motion but standing still infeasible —
+    /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
+    /// (0: never).
+    pub recovery_after_s: f64,
+    /// How long one backing out lasts, s.
+    pub recovery_s: f64,
+    /// Top speed backing out, m/s (the dynamic window samples speeds from minus this to 0, each
+    /// trajectory checked against the map as forward ones are).
+    pub recovery_mps: f64,
+    /// Backing-out tries without the robot getting `0.5 m` nearer the goal, after which it stops
+    /// with the `blocked` status.
+    pub recovery_max: u32,
     /// A foliage verdict older than this is ignored, s.
     pub foliage_max_age_s: f64,
     /// A map older than this is stale: zero velocity, s.
@@ -99,6 +111,10 @@ impl Default for PlannerConfig {
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
+            recovery_after_s: 1.5,
+            recovery_s: 2.0,
+            recovery_mps: 0.15,
+            recovery_max: 4,
             foliage_max_age_s: 0.3,
             map_max_age_s: 0.15,
             odom_max_age_s: 0.5,
@@ -157,6 +173,15 @@ impl PlannerConfig {
             self.glass_slow_within_m,
             0.0,
             10.0,
+        );
+        r.check("planner.recovery_after_s", self.recovery_after_s, 0.0, 60.0);
+        r.check("planner.recovery_s", self.recovery_s, 0.1, 60.0);
+        r.check("planner.recovery_mps", self.recovery_mps, 0.01, 2.0);
+        r.check(
+            "planner.recovery_max",
+            f64::from(self.recovery_max),
+            0.0,
+            100.0,
         );
         r.check(
             "planner.foliage_max_age_s",

@@ -88,10 +88,69 @@ pub fn plan_capped(
     grid: GridSpec,
     cost: &[u8],
     clear: &Clearance,
+    v0_omega0: (f64, f64),
+    speed_cap: f64,
+    goal: (f64, f64),
+    route: Option<&Route>,
+) -> DwaOutcome {
+    let gear = Gear::Forward;
+    search(
+        p, grid, cost, clear, v0_omega0, speed_cap, goal, route, gear,
+    )
+}
+
+/// Backing out (see [`crate::pilot`]): the dynamic window with speeds from
+/// `-planner.recovery_mps` to just below 0, every trajectory checked against the map as forward
+/// ones are, and the one scored best that leaves the body clearest of obstacles at its end,
+/// goal progress counting less ([`BACK_OUT_CLEARANCE_WEIGHT`]). A long body parallel to glass or
+/// a wall it has come too close to cannot turn away (its corners swing into it) and may not go
+/// on (the way converges): standing still is then all the forward window allows.
+#[allow(clippy::too_many_arguments)]
+pub fn back_out(
+    p: &PlannerParams,
+    grid: GridSpec,
+    cost: &[u8],
+    clear: &Clearance,
+    v0_omega0: (f64, f64),
+    goal: (f64, f64),
+    route: Option<&Route>,
+) -> DwaOutcome {
+    let gear = Gear::Reverse;
+    search(
+        p,
+        grid,
+        cost,
+        clear,
+        v0_omega0,
+        f64::INFINITY,
+        goal,
+        route,
+        gear,
+    )
+}
+
+/// Backing out, a metre of clearance gained for the body is worth this many metres of goal
+/// progress.
+pub const BACK_OUT_CLEARANCE_WEIGHT: f64 = 3.0;
+
+/// Which speeds the window samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Gear {
+    Forward,
+    Reverse,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn search(
+    p: &PlannerParams,
+    grid: GridSpec,
+    cost: &[u8],
+    clear: &Clearance,
     (v0, omega0): (f64, f64),
     speed_cap: f64,
     goal: (f64, f64),
     route: Option<&Route>,
+    gear: Gear,
 ) -> DwaOutcome {
     let (robot, pl) = (&p.robot, &p.planner);
     let routed = route.filter(|r| r.value(0.0, 0.0).is_finite());
@@ -111,11 +170,26 @@ pub fn plan_capped(
     let (max_accel, max_alpha) = (robot.max_linear_accel, robot.max_angular_accel);
     // never above the top speed, even when the odometry reports more (a base overshooting, or
     // a wrong `max_linear_mps`): the window's slowest is then the top speed
-    let v_lo = (v0 - max_accel * pl.window_s).max(0.0).min(max_v);
-    let v_hi = (v0 + max_accel * pl.window_s)
-        .min(max_v)
-        .min(speed_cap)
-        .max(v_lo);
+    let (v_lo, v_hi) = match gear {
+        Gear::Forward => {
+            let v_lo = (v0 - max_accel * pl.window_s).max(0.0).min(max_v);
+            let v_hi = (v0 + max_accel * pl.window_s)
+                .min(max_v)
+                .min(speed_cap)
+                .max(v_lo);
+            (v_lo, v_hi)
+        }
+        // moving back, never standing still
+        Gear::Reverse => {
+            let back = pl.recovery_mps.min(max_v);
+            let v_lo = (v0 - max_accel * pl.window_s).max(-back);
+            let v_hi = (v0 + max_accel * pl.window_s).min(-0.2 * back);
+            if v_lo > v_hi {
+                return DwaOutcome::Blocked;
+            }
+            (v_lo, v_hi)
+        }
+    };
     let w_lo = (omega0 - max_alpha * pl.window_s).max(-max_omega);
     let w_hi = (omega0 + max_alpha * pl.window_s).min(max_omega);
     let dt_s = pl.dt_s;
@@ -249,9 +323,25 @@ pub fn plan_capped(
             if !feasible {
                 continue;
             }
-            let score = pl.goal_weight * closest
-                + pl.speed_weight * (max_v - v)
-                + pl.obstacle_weight * obstacle * dt_s;
+            let score = match gear {
+                Gear::Forward => {
+                    pl.goal_weight * closest
+                        + pl.speed_weight * (max_v - v)
+                        + pl.obstacle_weight * obstacle * dt_s
+                }
+                Gear::Reverse => {
+                    // the body's slack at the end: the least of its discs' clearance beyond
+                    // what each needs
+                    let slack = (discs.iter())
+                        .map(|&(dx, need)| {
+                            grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
+                                .map_or(0.0, |(r, c)| f64::from(clear.at(r, c)) - need)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    pl.goal_weight * (to_go(x, y) - BACK_OUT_CLEARANCE_WEIGHT * slack)
+                        + pl.obstacle_weight * obstacle * dt_s
+                }
+            };
             if best.is_none_or(|b| score < b.2) {
                 best = Some((v, w, score));
             }
@@ -474,6 +564,49 @@ mod tests {
             plan(&ahead, grid, &cost, &clear, 0.3, 0.0, (4.0, 0.0), None),
             DwaOutcome::Drive { v, .. } if v > 0.25
         ));
+    }
+
+    /// Spot walked along a storefront that converged on its path until the only motion the
+    /// window allowed was standing still (a 1.1 m body cannot turn away from a pane 0.16 m from
+    /// its side: a corner swings into it). Backing out moves it back, on a trajectory the map
+    /// allows, and leaves it clearer of the pane.
+    #[test]
+    fn a_long_body_held_still_beside_glass_backs_out() {
+        // glass on the right converging on the heading (3° in), a wall across 0.2 m past the
+        // nose; `behind`: and a wall across 0.2 m behind the tail
+        let trap = |behind: bool| {
+            map(|x, y| {
+                let pane = y + 0.43 - 0.05 * x;
+                if pane.abs() < 0.05 || (x - 0.8).abs() < 0.05 || behind && (x + 0.8).abs() < 0.05 {
+                    cell_class::GLASS
+                } else {
+                    cell_class::FREE
+                }
+            })
+        };
+        let (grid, classes) = trap(false);
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
+        let goal = (4.0, 0.0);
+        match plan(&spot(), grid, &cost, &clear, 0.0, 0.0, goal, None) {
+            DwaOutcome::Drive { v, omega, .. } => {
+                assert!(
+                    v.abs() < 0.01 && omega.abs() < 0.05,
+                    "held still: {v} {omega}"
+                )
+            }
+            o => panic!("{o:?}"),
+        }
+        match back_out(&spot(), grid, &cost, &clear, (0.0, 0.0), goal, None) {
+            DwaOutcome::Drive { v, .. } => assert!(v < -0.02, "backs out: {v}"),
+            o => panic!("{o:?}"),
+        }
+        // walled in behind as well: no step back
+        let (grid, boxed) = trap(true);
+        let (clear, cost) = open_cost(&boxed, grid, 4.0);
+        assert_eq!(
+            back_out(&spot(), grid, &cost, &clear, (0.0, 0.0), goal, None),
+            DwaOutcome::Blocked
+        );
     }
 
     #[test]

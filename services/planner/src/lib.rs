@@ -100,6 +100,30 @@ impl Planner {
         omega0: f64,
         goal: (f64, f64),
     ) -> DwaOutcome {
+        self.plan_in(classes, grid, (v0, omega0), goal, false)
+    }
+
+    /// [`Planner::plan`] backing out ([`dwa::back_out`]): the step of a robot the dynamic window
+    /// held still.
+    pub fn back_out(
+        &mut self,
+        classes: &[u8],
+        grid: GridSpec,
+        v0: f64,
+        omega0: f64,
+        goal: (f64, f64),
+    ) -> DwaOutcome {
+        self.plan_in(classes, grid, (v0, omega0), goal, true)
+    }
+
+    fn plan_in(
+        &mut self,
+        classes: &[u8],
+        grid: GridSpec,
+        (v0, omega0): (f64, f64),
+        goal: (f64, f64),
+        back: bool,
+    ) -> DwaOutcome {
         let p = &self.params;
         if classes.len() != grid.len() || grid.is_empty() {
             return DwaOutcome::Blocked;
@@ -145,6 +169,10 @@ impl Planner {
         } else {
             None
         };
+        if back {
+            let (cost, clear) = (&self.cost, &self.clear);
+            return dwa::back_out(p, grid, cost, clear, (v0, omega0), goal, route);
+        }
         let cap = glass_speed_cap(p, classes, grid);
         dwa::plan_capped(
             p,

@@ -87,6 +87,16 @@ impl PlannerParams {
         seconds_ns(self.planner.no_route_stop_s)
     }
 
+    /// How long the robot is held still before it backs out (`planner.recovery_after_s`), ns.
+    pub fn recovery_after_ns(&self) -> u64 {
+        seconds_ns(self.planner.recovery_after_s)
+    }
+
+    /// How long one backing out lasts (`planner.recovery_s`), ns.
+    pub fn recovery_ns(&self) -> u64 {
+        seconds_ns(self.planner.recovery_s)
+    }
+
     /// How long a command is valid after it is sent (`robot.command_validity_s`), ns.
     pub fn command_validity_ns(&self) -> u64 {
         seconds_ns(self.robot.command_validity_s)

@@ -99,6 +99,10 @@ impl Decision {
             command_status::BLOCKED if self.flags & command_flags::NO_ROUTE != 0 => {
                 "blocked (no route to the goal on the map): zero velocity".to_string()
             }
+            command_status::BLOCKED if self.flags & command_flags::BACKING_OUT != 0 => {
+                "blocked (held still, and backing out brought it no nearer the goal): zero velocity"
+                    .to_string()
+            }
             command_status::BLOCKED => "blocked (no feasible motion): zero velocity".to_string(),
             command_status::NO_GOAL => "no goal: zero velocity".to_string(),
             command_status::STALE_INPUT => format!(
@@ -107,10 +111,14 @@ impl Decision {
             ),
             s => format!("status {s}"),
         };
-        let what = if self.status == command_status::DRIVING
-            && self.flags & command_flags::NO_ROUTE != 0
-        {
+        let driving = self.status == command_status::DRIVING;
+        let what = if driving && self.flags & command_flags::NO_ROUTE != 0 {
             what + " slowly: no route to the goal on the map"
+        } else {
+            what
+        };
+        let what = if driving && self.flags & command_flags::BACKING_OUT != 0 {
+            what + " back: backing out"
         } else {
             what
         };
@@ -154,6 +162,39 @@ pub struct Pilot {
     /// Since when the map has held no route to the goal (monotonic ns).
     no_route_since: Option<u64>,
     map_hop: Hop,
+    /// Backing out: see [`BackOut`].
+    back_out: BackOut,
+}
+
+/// Below these speeds (m/s, rad/s) a command holds the robot (nearly) still: a long body that
+/// cannot turn away creeps ever slower towards what holds it.
+const STILL: (f64, f64) = (0.03, 0.05);
+/// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
+/// again from none.
+const PROGRESS_M: f64 = 0.5;
+
+/// The robot held still by the dynamic window, and backing out of it.
+#[derive(Debug, Clone, Copy)]
+struct BackOut {
+    /// Since when every plan held the robot still (monotonic ns).
+    still_since: Option<u64>,
+    /// Backing out until then (monotonic ns).
+    until: Option<u64>,
+    /// Tries since the robot last got `PROGRESS_M` nearer the goal.
+    tries: u32,
+    /// The distance to the goal then, m.
+    progress_ref_m: f64,
+}
+
+impl Default for BackOut {
+    fn default() -> Self {
+        BackOut {
+            still_since: None,
+            until: None,
+            tries: 0,
+            progress_ref_m: f64::INFINITY,
+        }
+    }
 }
 
 impl Pilot {
@@ -170,6 +211,7 @@ impl Pilot {
             seq: 0,
             no_route_since: None,
             map_hop: Hop::new(),
+            back_out: BackOut::default(),
         }
     }
 
@@ -220,8 +262,9 @@ impl Pilot {
             return Err(Refused::Goal(g.seq));
         }
         self.goal = Some(*g);
-        // a new goal may have a route: its own time to find one
+        // a new goal may have a route: its own time to find one, its own tries to back out
         self.no_route_since = None;
+        self.back_out = BackOut::default();
         Ok(())
     }
 
@@ -329,13 +372,16 @@ impl Pilot {
                 self.foliage.obstacles.iter().copied(),
             );
         }
-        match self.planner.plan(
-            &self.classes,
-            grid,
-            f64::from(odom.v),
-            f64::from(odom.omega),
-            (gx, gy),
-        ) {
+        let (v0, omega0) = (f64::from(odom.v), f64::from(odom.omega));
+        if let Some(d) = self.backing_out(grid, (v0, omega0), (gx, gy), now, flags, header) {
+            return d;
+        }
+        let outcome = self.planner.plan(&self.classes, grid, v0, omega0, (gx, gy));
+        if let Some(d) = self.held_still(&outcome, grid, (v0, omega0), (gx, gy), now, flags, header)
+        {
+            return d;
+        }
+        match outcome {
             DwaOutcome::Drive {
                 v, omega, routed, ..
             } if v.is_finite() && omega.is_finite() => {
@@ -363,6 +409,105 @@ impl Pilot {
                 }
             }
             _ => Decision::stop(command_status::BLOCKED, flags, None, Some(header)),
+        }
+    }
+
+    /// While backing out ([`BackOut::until`] not passed): the step back, or `None` when the time
+    /// is up or no step back is feasible (then the robot plans forward again). Counts the
+    /// progress towards the goal that resets the tries.
+    #[allow(clippy::too_many_arguments)]
+    fn backing_out(
+        &mut self,
+        grid: GridSpec,
+        v0_omega0: (f64, f64),
+        goal: (f64, f64),
+        now: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        let b = &mut self.back_out;
+        let to_goal = goal.0.hypot(goal.1);
+        if to_goal < b.progress_ref_m - PROGRESS_M || b.progress_ref_m.is_infinite() {
+            (b.progress_ref_m, b.tries) = (to_goal, 0);
+        }
+        let until = b.until?;
+        if now >= until {
+            b.until = None;
+            return None;
+        }
+        self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// After a forward plan: when it held the robot still for `planner.recovery_after_s`, the
+    /// first step of backing out (or, after `planner.recovery_max` tries without progress, the
+    /// `blocked` stop); `None` to send the plan as it is.
+    #[allow(clippy::too_many_arguments)]
+    fn held_still(
+        &mut self,
+        outcome: &DwaOutcome,
+        grid: GridSpec,
+        v0_omega0: (f64, f64),
+        goal: (f64, f64),
+        now: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        let (after, lasts) = (
+            self.params().recovery_after_ns(),
+            self.params().recovery_ns(),
+        );
+        let max_tries = self.params().planner.recovery_max;
+        let still = matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
+            if v.abs() < STILL.0 && omega.abs() < STILL.1);
+        let b = &mut self.back_out;
+        if !still || after == 0 {
+            b.still_since = None;
+            return None;
+        }
+        let since = *b.still_since.get_or_insert(now);
+        if now.saturating_sub(since) < after {
+            return None;
+        }
+        b.still_since = None;
+        if b.tries >= max_tries {
+            let flags = flags | command_flags::BACKING_OUT;
+            return Some(Decision::stop(
+                command_status::BLOCKED,
+                flags,
+                None,
+                Some(header),
+            ));
+        }
+        b.tries += 1;
+        b.until = Some(now.saturating_add(lasts));
+        self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// One step back, or `None` (and backing out ends) when none is feasible.
+    fn step_back(
+        &mut self,
+        grid: GridSpec,
+        (v0, omega0): (f64, f64),
+        goal: (f64, f64),
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        match self.planner.back_out(&self.classes, grid, v0, omega0, goal) {
+            DwaOutcome::Drive { v, omega, .. } if v.is_finite() && omega.is_finite() => {
+                Some(Decision {
+                    v,
+                    omega,
+                    status: command_status::DRIVING,
+                    flags: flags | command_flags::BACKING_OUT,
+                    stale: None,
+                    source_stamp_ns: header.stamp_ns,
+                    source_seq: header.source_seq,
+                })
+            }
+            _ => {
+                self.back_out.until = None;
+                None
+            }
         }
     }
 

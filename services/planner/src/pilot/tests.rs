@@ -450,3 +450,90 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     assert_eq!(open.status, command_status::DRIVING, "{open:?}");
     assert_eq!(open.flags & command_flags::NO_ROUTE, 0, "{open:?}");
 }
+
+/// Issue 22: Spot walked along a storefront converging on its path until the dynamic window
+/// allowed only standing still, and stood with status `driving` until its time ran out. Held
+/// still for `planner.recovery_after_s`, it now backs out for `planner.recovery_s`, then plans
+/// forward again; after `planner.recovery_max` tries without getting nearer the goal it stops
+/// with the `blocked` status.
+#[test]
+fn a_robot_held_still_backs_out_then_stops_blocked() {
+    // glass on the right converging on the heading, a wall across 0.15 m past the nose
+    let trap: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (x, y) = grid().center_of(i / grid().cells, i % grid().cells);
+            if (y + 0.43 - 0.05 * x).abs() < 0.06 || (x - 0.72).abs() < 0.06 {
+                cell_class::GLASS
+            } else {
+                cell_class::FREE
+            }
+        })
+        .collect();
+    let mut params = PlannerParams::default();
+    (
+        params.robot.radius_m,
+        params.robot.length_m,
+        params.robot.width_m,
+    ) = (0.6, 1.1, 0.5);
+    params.planner.route_cell_m = 0.0;
+    let (c, n) = (&params.planner, params.planner.recovery_max);
+    let (after, lasts) = (
+        (c.recovery_after_s * 1e9) as u64,
+        (c.recovery_s * 1e9) as u64,
+    );
+    let t = 10 * S;
+    let mut p = driving(params.clone(), t);
+    let mut at = |dt: u64| {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        let d = p.on_map(&header(dt / (100 * MS)), trap.iter().copied(), t + dt);
+        (
+            d.status,
+            d.v,
+            d.flags & command_flags::BACKING_OUT != 0,
+            d.describe(),
+        )
+    };
+    let mut now = 0;
+    for k in 0..n {
+        let still = at(now);
+        assert_eq!(
+            (still.0, still.2),
+            (command_status::DRIVING, false),
+            "{still:?}"
+        );
+        assert!(still.1.abs() < 0.03, "held still: {still:?}");
+        let not_yet = at(now + after - 100 * MS);
+        assert!(!not_yet.2, "try {k}: {not_yet:?}");
+        let back = at(now + after);
+        assert!(back.2 && back.1 < 0.0, "try {k} backs out: {back:?}");
+        assert!(back.3.contains("backing out"), "{}", back.3);
+        let still_back = at(now + after + lasts - 100 * MS);
+        assert!(still_back.2, "try {k}: {still_back:?}");
+        now += after + lasts;
+    }
+    // the odometry never showed it nearer the goal: after the last try, blocked
+    at(now);
+    let blocked = at(now + after);
+    assert_eq!(
+        (blocked.0, blocked.1, blocked.2),
+        (command_status::BLOCKED, 0.0, true)
+    );
+    assert!(
+        blocked.3.contains("backing out brought it no nearer"),
+        "{}",
+        blocked.3
+    );
+    // a new goal: tries from none
+    p.goal(&goal(3.0, 0.0, t + now + after))
+        .expect("a good goal");
+    let mut fresh = |dt: u64| {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        p.on_map(&header(dt / (100 * MS)), trap.iter().copied(), t + dt)
+    };
+    fresh(now + after + 100 * MS);
+    let again = fresh(now + 2 * after + 100 * MS);
+    assert!(
+        again.v < 0.0 && again.flags & command_flags::BACKING_OUT != 0,
+        "{again:?}"
+    );
+}
