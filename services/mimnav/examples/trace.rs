@@ -1,6 +1,12 @@
-//! Debug: runs one episode of a world and writes the planner's map every N revolutions and at
-//! the last ones. `cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--set K=V]…`
-use std::path::PathBuf;
+//! Debugging a run revolution by revolution: runs one episode of a world through the lock-step
+//! runner (the services' own step types, the deployed method) and prints each revolution's pose
+//! and command; writes the planner's map (robot at the centre, heading up, goal in blue) every
+//! EVERY revolutions and for the last four. How the glass failures of issue 22 were read.
+//!
+//! ```sh
+//! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--config FILE] [--set KEY=VALUE]…
+//! ```
+use std::path::{Path, PathBuf};
 
 use mimnav_config::Config;
 use mimnav_mapper::render::{Marks, render_map};
@@ -8,19 +14,46 @@ use mimnav_runner::{Lockstep, Options};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_sim::world::WorldFile;
 
-fn main() -> anyhow::Result<()> {
+const USAGE: &str = "usage: trace WORLD OUTDIR [EVERY] [--config FILE] [--set KEY=VALUE]...";
+
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("trace: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let world = PathBuf::from(&args[0]);
-    let out = PathBuf::from(&args[1]);
-    let every: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
-    let sets: Vec<String> = args
-        .windows(2)
-        .filter(|w| w[0] == "--set")
-        .map(|w| w[1].clone())
+    let flag = |name: &str| -> Vec<String> {
+        (args.windows(2))
+            .filter(|w| w[0] == name)
+            .map(|w| w[1].clone())
+            .collect()
+    };
+    let (sets, config_path) = (flag("--set"), flag("--config").pop());
+    let positional: Vec<&String> = (args.iter().enumerate())
+        .filter(|(i, a)| !a.starts_with("--") && (*i == 0 || !args[i - 1].starts_with("--")))
+        .map(|(_, a)| a)
         .collect();
+    let (Some(world), Some(out)) = (positional.first(), positional.get(1)) else {
+        anyhow::bail!("{USAGE}");
+    };
+    let (world, out) = (PathBuf::from(world), PathBuf::from(out));
+    let every: usize = match positional.get(2) {
+        Some(s) => s
+            .parse()
+            .map_err(|_| anyhow::anyhow!("EVERY: {s}: not a count; {USAGE}"))?,
+        None => 10,
+    };
+    let every = every.max(1);
+    let config_path = config_path.map(PathBuf::from);
+    let config =
+        Config::resolve(config_path.as_deref(), &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
     std::fs::create_dir_all(&out)?;
-    let config = Config::resolve(Some(std::path::Path::new("config/mimnav.toml")), &sets)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let scene = WorldFile::load(&world)
         .map_err(|e| anyhow::anyhow!("{e}"))?
         .compile();
@@ -66,7 +99,7 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn write(path: &std::path::Path, img: &mimnav_mapper::render::Image) -> anyhow::Result<()> {
+fn write(path: &Path, img: &mimnav_mapper::render::Image) -> anyhow::Result<()> {
     let file = std::fs::File::create(path)?;
     let mut enc = png::Encoder::new(
         std::io::BufWriter::new(file),
