@@ -547,6 +547,9 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
             cell_m: 0.1,
             radius_m: p.footprint_m() as f32,
             cost_weight: 0.0,
+            // the geometric shortest way: no preference for room to turn
+            swing_m: 0.0,
+            swing_weight: 0.0,
             settle_within_m: 0.0,
         },
         grid,

@@ -133,6 +133,8 @@ fn breakdown(config: &Config, maps: &[Case]) {
                 cell_m: p.route_cell_m as f32,
                 radius_m: params.footprint_m() as f32,
                 cost_weight: p.route_cost_weight as f32,
+                swing_m: params.swing_m() as f32,
+                swing_weight: p.route_swing_weight as f32,
                 settle_within_m: reach,
             },
             grid,

@@ -54,6 +54,11 @@ pub struct PlannerConfig {
     pub route_cell_m: f64,
     /// Extra route cost per unit of planning cost.
     pub route_cost_weight: f64,
+    /// A long body (Spot) needs room beyond its half width to turn: its enclosing radius less
+    /// its half width. A metre of route nearer an obstacle than that costs up to this many
+    /// metres more, in proportion to the shortfall, so the route keeps the body where it can
+    /// still turn (0: no preference; a round robot has none).
+    pub route_swing_weight: f64,
     /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
     pub use_foliage: bool,
     /// When the map holds no route to the goal for the robot's body, the planner drives on by
@@ -107,6 +112,7 @@ impl Default for PlannerConfig {
             margin_m: 0.1,
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
+            route_swing_weight: 4.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
@@ -163,6 +169,12 @@ impl PlannerConfig {
         r.check(
             "planner.route_cost_weight",
             self.route_cost_weight,
+            0.0,
+            100.0,
+        );
+        r.check(
+            "planner.route_swing_weight",
+            self.route_swing_weight,
             0.0,
             100.0,
         );

@@ -158,6 +158,8 @@ impl Planner {
                     cell_m: p.planner.route_cell_m as f32,
                     radius_m: p.footprint_m() as f32,
                     cost_weight: p.planner.route_cost_weight as f32,
+                    swing_m: p.swing_m() as f32,
+                    swing_weight: p.planner.route_swing_weight as f32,
                     settle_within_m: reach as f32,
                 },
                 grid,

@@ -37,6 +37,14 @@ impl PlannerParams {
         self.robot.body().half_width_m() + self.planner.margin_m
     }
 
+    /// The room beyond the footprint a long body needs to turn in place: its enclosing radius
+    /// less its half width (0 for a round robot), m. The route prefers places with it
+    /// ([`crate::route::RouteParams::swing_m`]).
+    pub fn swing_m(&self) -> f64 {
+        let body = self.robot.body();
+        (body.enclosing_radius_m() - body.half_width_m()).max(0.0)
+    }
+
     /// The discs the dynamic window checks along every rollout: a cover of the body (one disc
     /// of `radius_m` for a round robot; for a rectangle, discs along the heading reaching at
     /// most [`BODY_COVER_SIDE_M`] beyond its long sides), each to be kept `planner.margin_m`

@@ -58,6 +58,8 @@ pub struct Route {
     weight: Vec<u8>,
     /// Coarse clearance, m.
     clear: Vec<f32>,
+    /// The extra cost per metre of each coarse cell for lacking room to turn.
+    swing: Vec<f32>,
     /// `open` with a closed border two cells wide.
     padded: Vec<bool>,
     /// Route length to the goal from each coarse cell's centre, m (infinite: no route).
@@ -82,6 +84,7 @@ impl Default for Route {
             open: Vec::new(),
             weight: Vec::new(),
             clear: Vec::new(),
+            swing: Vec::new(),
             padded: Vec::new(),
             dist: Vec::new(),
             heap: BinaryHeap::new(),
@@ -101,6 +104,14 @@ pub struct RouteParams {
     pub radius_m: f32,
     /// Extra cost per unit of planning cost (0–1) of the cells a route enters.
     pub cost_weight: f32,
+    /// The room beyond `radius_m` a long body needs to turn (its enclosing radius less its half
+    /// width; 0 for a round robot), m. A cell nearer an obstacle than `radius_m + swing_m`
+    /// costs up to `swing_weight` more per metre, in proportion to the shortfall: the route
+    /// keeps a long body off glass and walls where there is room, so it can still turn there,
+    /// and passes a door only as wide as the body where it must.
+    pub swing_m: f32,
+    /// The most a metre of route costs extra for lacking that room.
+    pub swing_weight: f32,
     /// The search stops once every open cell within this distance of the robot (the map's
     /// centre) has its final length — all the dynamic window's rollouts can ask for (their reach
     /// plus two coarse cells for the interpolation). Cells beyond may keep longer, provisional
@@ -188,6 +199,12 @@ impl Route {
         for (open, &d) in self.open.iter_mut().zip(&obstacle) {
             *open = d > 0.0 && d >= need;
         }
+        self.swing.clear();
+        self.swing
+            .extend(obstacle.iter().map(|&d| match p.swing_m > 0.0 {
+                true => p.swing_weight * ((p.radius_m + p.swing_m - d) / p.swing_m).clamp(0.0, 1.0),
+                false => 0.0,
+            }));
         self.clear = obstacle;
         let scale = p.cost_weight / 255.0;
         // the goal's own cell, or the border when the goal lies outside the map
@@ -271,7 +288,7 @@ impl Route {
                     continue;
                 }
                 let kk = (k as isize + step) as usize;
-                let nd = d + len * (1.0 + scale * f32::from(self.weight[kk]));
+                let nd = d + len * (1.0 + scale * f32::from(self.weight[kk]) + self.swing[kk]);
                 if nd < self.dist[kk] {
                     self.dist[kk] = nd;
                     self.heap
@@ -373,6 +390,8 @@ mod tests {
                 cell_m: 0.2,
                 radius_m: 0.2,
                 cost_weight: 1.0,
+                swing_m: 0.0,
+                swing_weight: 0.0,
                 settle_within_m: within,
             },
             grid,
@@ -388,6 +407,52 @@ mod tests {
             cells: 200,
             cell_m: 0.05,
         }
+    }
+
+    /// Issue 22: Spot's route hugged a storefront until its 1.1 m body could no longer turn
+    /// into the door. With `swing_m` the route keeps a long body off a wall where there is room,
+    /// and still passes a door only as wide as its footprint needs.
+    #[test]
+    fn a_long_bodys_route_keeps_room_to_turn_and_still_passes_a_narrow_door() {
+        let route = |c: &[u8], swing_weight: f32| {
+            let mut r = Route::default();
+            r.build(
+                &RouteParams {
+                    cell_m: 0.2,
+                    radius_m: 0.35,
+                    cost_weight: 0.0,
+                    swing_m: 0.35,
+                    swing_weight,
+                    settle_within_m: 0.0,
+                },
+                grid(),
+                c,
+                &vec![0; c.len()],
+                (3.0, 0.0),
+            );
+            r
+        };
+        // a wall along the robot's right, 0.7 m from its centre
+        let beside = classes(|_, y| match (y + 0.7).abs() < 0.05 {
+            true => cell_class::GLASS,
+            false => cell_class::FREE,
+        });
+        let (near, far) = ((0.0, -0.2), (0.0, 0.3));
+        let plain = route(&beside, 0.0);
+        let (pn, pf) = (plain.value(near.0, near.1), plain.value(far.0, far.1));
+        assert!((pn - pf).abs() < 0.1, "no preference: {pn} {pf}");
+        let roomy = route(&beside, 4.0);
+        let (rn, rf) = (roomy.value(near.0, near.1), roomy.value(far.0, far.1));
+        assert!(rn > rf + 0.5, "away from the wall is cheaper: {rn} {rf}");
+        // a wall across x = 1.5 m with a door 0.9 m wide: open for the footprint, dearer
+        let door = classes(|x, y| match (x - 1.5).abs() < 0.05 && y.abs() > 0.45 {
+            true => cell_class::SOLID,
+            false => cell_class::FREE,
+        });
+        let (plain, roomy) = (route(&door, 0.0), route(&door, 4.0));
+        let (a, b) = (plain.value(0.0, 0.0), roomy.value(0.0, 0.0));
+        assert!(a.is_finite() && b.is_finite(), "through the door: {a} {b}");
+        assert!(b > a, "{a} {b}");
     }
 
     fn classes(f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
@@ -534,6 +599,8 @@ mod tests {
                 cell_m: 0.2,
                 radius_m: 0.2,
                 cost_weight: 1.0,
+                swing_m: 0.0,
+                swing_weight: 0.0,
                 settle_within_m: 1.0,
             },
             grid(),
