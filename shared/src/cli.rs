@@ -81,3 +81,11 @@ pub fn stderr_line(line: std::fmt::Arguments<'_>) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr().lock(), "{line}");
 }
+
+/// A clap value parser for a duration in seconds: above 0, at most a day.
+pub fn seconds_arg(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v <= 86_400.0 => Ok(v),
+        _ => Err(format!("{s} is out of range: allowed above 0 to 86400")),
+    }
+}

@@ -9,6 +9,9 @@
 //! sequence that goes back means the publisher restarted: counted as a restart, not a loss.
 
 use std::fmt;
+use std::time::Instant;
+
+use crate::faults::Faults;
 
 /// The received and dropped samples of one input topic.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -60,6 +63,24 @@ impl Hop {
     /// `N in, M dropped` (with the restarts, if any), naming the samples `what` (plural).
     pub fn describe<'a>(&'a self, what: &'a str) -> impl fmt::Display + 'a {
         Described(self, what)
+    }
+}
+
+/// Counts a gap of `lost` samples (the difference of [`Hop::dropped`] across one sample) as a
+/// fault of `kind` in `faults` — a rate-limited warning naming the topic and the reader —;
+/// nothing when `lost` is 0.
+pub fn record_drops(
+    faults: &mut Faults,
+    kind: &'static str,
+    now: Instant,
+    lost: u64,
+    (what, topic, reader): (&str, &str, &str),
+) {
+    if lost > 0 {
+        let detail = format_args!(
+            "{lost} {what} on {topic} never reached the {reader} (overwritten while it was busy)"
+        );
+        faults.record(kind, now, detail);
     }
 }
 

@@ -21,16 +21,13 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use mimnav_config::Config;
 use mimnav_mapper::render::{self, Marks, render_map};
-use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc;
 use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
-use mimnav_sim::world::WorldFile;
 
-use crate::stack::Stack;
+use crate::stack::{self, Resolved, Stack};
 
 /// Arguments of `mimnav demo`.
 #[derive(Debug, clap::Args)]
@@ -76,16 +73,13 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 /// Runs the demo.
 pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Result<ExitCode> {
-    let mut sets = sets.to_vec();
-    if let Some(r) = &args.robot {
-        sets.push(format!("robot.profile={}", toml_quote(r)));
-    }
-    let config = Config::resolve(config_path, &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let world_path = args
-        .world
-        .clone()
-        .unwrap_or_else(|| config.sim.world_path(&config.dir()));
-    let world = WorldFile::load(&world_path)?;
+    let (robot, world) = (args.robot.as_deref(), args.world.as_deref());
+    let Resolved {
+        config,
+        sets,
+        world_path,
+        world,
+    } = stack::resolve(config_path, sets, robot, &[], world)?;
     let stack = Stack::new(
         "demo",
         &config,

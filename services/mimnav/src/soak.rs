@@ -20,14 +20,11 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use mimnav_config::Config;
-use mimnav_shared::config::toml_quote;
 use mimnav_shared::ipc;
 use mimnav_shared::topics::{Goal, command_status};
-use mimnav_sim::world::WorldFile;
 use serde::Serialize;
 
-use crate::stack::Stack;
+use crate::stack::{self, Resolved, Stack};
 
 /// How often the processes' memory is sampled.
 const RSS_EVERY: Duration = Duration::from_millis(250);
@@ -52,10 +49,10 @@ pub struct SoakArgs {
     #[arg(long, value_name = "NAME")]
     robot: Option<String>,
     /// Sensor time to stream, s.
-    #[arg(long, default_value_t = 60.0, value_parser = positive)]
+    #[arg(long, default_value_t = 60.0, value_parser = mimnav_shared::cli::seconds_arg)]
     seconds: f64,
     /// How many times faster than real time the simulator streams (sim.time_scale).
-    #[arg(long, default_value_t = 10.0, value_parser = positive)]
+    #[arg(long, default_value_t = 10.0)]
     time_scale: f64,
     /// Seed of the simulation (default: sim.seed).
     #[arg(long)]
@@ -70,13 +67,6 @@ pub struct SoakArgs {
     /// Print the report as one JSON object as well.
     #[arg(long)]
     json: bool,
-}
-
-fn positive(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v > 0.0 && v <= 86_400.0 => Ok(v),
-        _ => Err(format!("{s} is out of range: allowed above 0 to 86400")),
-    }
 }
 
 /// The last sample of a numbered topic: how many were published (the publisher numbers from
@@ -177,16 +167,18 @@ fn kernel_drops(port: u16) -> Option<u64> {
 
 /// Runs the soak.
 pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Result<ExitCode> {
-    let mut sets = sets.to_vec();
-    if let Some(r) = &args.robot {
-        sets.push(format!("robot.profile={}", toml_quote(r)));
-    }
-    sets.push(format!("sim.time_scale={}", args.time_scale));
     // the robot patrols: reaching the goal or the world's time limit must not stop it
-    sets.push("sim.endless=true".into());
-    let config = Config::resolve(config_path, &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let world_path = (args.world.clone()).unwrap_or_else(|| config.sim.world_path(&config.dir()));
-    let world = WorldFile::load(&world_path)?;
+    let extra = [
+        format!("sim.time_scale={}", args.time_scale),
+        "sim.endless=true".into(),
+    ];
+    let (robot, world) = (args.robot.as_deref(), args.world.as_deref());
+    let Resolved {
+        config,
+        sets,
+        world_path,
+        world,
+    } = stack::resolve(config_path, sets, robot, &extra, world)?;
     let stack = Stack::new(
         "soak",
         &config,

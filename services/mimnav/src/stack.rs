@@ -11,7 +11,7 @@
 //! itself and waits (up to [`HALT_WITHIN`]) until the odometry shows the robot at rest, then
 //! stops the simulator, then the driver, mapper and classifier, and waits for each.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -19,6 +19,7 @@ use mimnav_config::Config;
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::ipc::{self, PrivateDomain};
 use mimnav_shared::topics::{Odometry, VelocityCommand, command_status};
+use mimnav_sim::world::WorldFile;
 
 use crate::procs::{Options, Service, service_binary};
 
@@ -36,6 +37,44 @@ fn free_port() -> Result<u16> {
     Ok(s.local_addr()
         .context("cannot find a free UDP port")?
         .port())
+}
+
+/// What the front end's own settings resolve to: the config of `config_path` with `sets`, the
+/// robot profile `robot` and the `extra` sets (the settings the services get too), and the world
+/// (`world`, else `sim.world`) with its path.
+pub struct Resolved {
+    /// The config.
+    pub config: Config,
+    /// Every `--set` the services get.
+    pub sets: Vec<String>,
+    /// The world file's path.
+    pub world_path: PathBuf,
+    /// The world.
+    pub world: WorldFile,
+}
+
+/// Resolves the settings of `mimnav demo` or `mimnav soak` ([`Resolved`]).
+pub fn resolve(
+    config_path: Option<&Path>,
+    sets: &[String],
+    robot: Option<&str>,
+    extra: &[String],
+    world: Option<&Path>,
+) -> Result<Resolved> {
+    let mut sets = sets.to_vec();
+    if let Some(r) = robot {
+        sets.push(format!("robot.profile={}", toml_quote(r)));
+    }
+    sets.extend_from_slice(extra);
+    let config = Config::resolve(config_path, &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let world_path = world.map_or_else(|| config.sim.world_path(&config.dir()), Path::to_path_buf);
+    let world = WorldFile::load(&world_path)?;
+    Ok(Resolved {
+        config,
+        sets,
+        world_path,
+        world,
+    })
 }
 
 /// The stack's settings, before anything is started.

@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_foliage::step::OdomUse;
+use mimnav_shared::hop::record_drops;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics;
@@ -107,13 +108,8 @@ fn run(config: &Config) -> Result<()> {
             }
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
             let lost = step.scan_hop().dropped() - dropped;
-            if lost > 0 {
-                let what = format!(
-                    "{lost} scans on {} never reached the classifier (overwritten while it was busy)",
-                    topics::LIDAR_SCAN2D
-                );
-                h.faults.record("dropped_scans", turn.now, what);
-            }
+            let what = ("scans", topics::LIDAR_SCAN2D, "classifier");
+            record_drops(&mut h.faults, "dropped_scans", turn.now, lost, what);
             let dropped = step.scan_hop().dropped();
             h.sd.status(&match alarm_on {
                 true => format!(

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use mimnav_config::Config;
+use mimnav_shared::hop::record_drops;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics::{self, PlanCell, map_status};
@@ -80,13 +81,8 @@ fn run(config: &Config) -> Result<()> {
             let mut mapped = step.revolution(sample.user_header(), sample.payload(), now);
             drop(sample);
             let lost = step.points_hop().dropped() - dropped;
-            if lost > 0 {
-                let what = format!(
-                    "{lost} revolutions on {} never reached the mapper (overwritten while it was busy)",
-                    topics::LIDAR_POINTS
-                );
-                h.faults.record("dropped_revolutions", turn.now, what);
-            }
+            let what = ("revolutions", topics::LIDAR_POINTS, "mapper");
+            record_drops(&mut h.faults, "dropped_revolutions", turn.now, lost, what);
             if mapped.header.status == map_status::ODOM_STALE {
                 h.faults.record("stale_odom", turn.now, mapped.describe());
             }
@@ -122,7 +118,10 @@ fn run(config: &Config) -> Result<()> {
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
             // sent only when it changes
             let dropped = step.points_hop().dropped();
-            h.sd.status(&format!("{}; {dropped} revolutions dropped", mapped.describe()));
+            h.sd.status(&format!(
+                "{}; {dropped} revolutions dropped",
+                mapped.describe()
+            ));
         }
         if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
             let mean_processing_us = spent_us / since_report;

@@ -13,6 +13,7 @@ use std::time::Duration;
 use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_planner::pilot::{Decision, Pilot};
+use mimnav_shared::hop::record_drops;
 use mimnav_shared::ipc::{self, Listening, ValuePublisher};
 use mimnav_shared::service::{self, Health, Service, ServiceCli};
 use mimnav_shared::topics::{self, VelocityCommand};
@@ -132,13 +133,8 @@ fn run(config: &Config) -> Result<()> {
             let d = pilot.on_map(&header, sample.payload().iter().map(|c| c.class), now);
             drop(sample);
             let lost = pilot.map_hop().dropped() - dropped;
-            if lost > 0 {
-                let what = format!(
-                    "{lost} maps on {} never reached the planner (overwritten while it was busy)",
-                    topics::MAP_PLAN
-                );
-                h.faults.record("dropped_maps", turn.now, what);
-            }
+            let what = ("maps", topics::MAP_PLAN, "planner");
+            record_drops(&mut h.faults, "dropped_maps", turn.now, lost, what);
             planned = true;
             if let Some(stale) = d.stale {
                 h.faults.record("stale_input", turn.now, stale.reason());

@@ -31,7 +31,7 @@ struct Args {
     world: Option<PathBuf>,
     /// Stop after this much simulated time, s [default: 1 with --pcap, else when the episode
     /// ends].
-    #[arg(long, value_parser = seconds)]
+    #[arg(long, value_parser = mimnav_shared::cli::seconds_arg)]
     seconds: Option<f64>,
     /// Write a capture here instead of streaming.
     #[arg(long, value_name = "OUT")]
@@ -45,13 +45,6 @@ struct Args {
     /// Print the episode's summary as one JSON line.
     #[arg(long)]
     json: bool,
-}
-
-fn seconds(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v > 0.0 && v <= 86_400.0 => Ok(v),
-        _ => Err(format!("{s} is out of range: allowed above 0 to 86400")),
-    }
 }
 
 impl ServiceCli for Args {
