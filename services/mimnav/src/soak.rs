@@ -91,13 +91,20 @@ impl Last {
     }
 }
 
-/// One service's resident memory over the run, KiB.
+/// One service's resident memory over the run, KiB: all of it (`VmRSS`), its own heap and
+/// stacks (`RssAnon`: a leak shows here) and the shared memory it has touched (`RssShmem`: the
+/// iceoryx2 sample pools, which grow until every sample of a pool has been used once).
 #[derive(Debug, Clone, Serialize)]
 struct Memory {
     service: String,
     after_warm_up_kib: u64,
+    half_kib: u64,
     end_kib: u64,
     max_kib: u64,
+    heap_after_warm_up_kib: u64,
+    heap_end_kib: u64,
+    shared_after_warm_up_kib: u64,
+    shared_end_kib: u64,
     samples: usize,
 }
 
@@ -105,6 +112,24 @@ impl Memory {
     fn growth_kib(&self) -> i64 {
         self.end_kib as i64 - self.after_warm_up_kib as i64
     }
+    fn heap_growth_kib(&self) -> i64 {
+        self.heap_end_kib as i64 - self.heap_after_warm_up_kib as i64
+    }
+    /// Flat: the heap grew by no more than [`RSS_FLAT_KIB`] after the warm-up, nor the whole in
+    /// the second half of the run.
+    fn flat(&self) -> bool {
+        self.heap_growth_kib() <= RSS_FLAT_KIB as i64
+            && self.end_kib as i64 - self.half_kib as i64 <= RSS_FLAT_KIB as i64
+    }
+}
+
+/// One sample of a process's memory, KiB.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t: f64,
+    rss: u64,
+    anon: u64,
+    shmem: u64,
 }
 
 /// What the soak measured: every revolution the simulator completed, accounted for hop by hop.
@@ -146,15 +171,23 @@ impl Report {
         self.lost_end_to_end == 0
             && self.lost_foliage == 0
             && self.kernel_drops.unwrap_or(0) == 0
-            && (self.memory.iter()).all(|m| m.growth_kib() <= RSS_FLAT_KIB as i64)
+            && (self.memory.iter()).all(Memory::flat)
     }
 }
 
-/// `VmRSS` of process `pid`, KiB.
-fn rss_kib(pid: u32) -> Option<u64> {
+/// `VmRSS`, `RssAnon` and `RssShmem` of process `pid` at `t`, KiB.
+fn memory_of(pid: u32, t: f64) -> Option<Sample> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
+    let field = |name: &str| -> Option<u64> {
+        let line = status.lines().find(|l| l.starts_with(name))?;
+        line.split_whitespace().nth(1)?.parse().ok()
+    };
+    Some(Sample {
+        t,
+        rss: field("VmRSS:")?,
+        anon: field("RssAnon:")?,
+        shmem: field("RssShmem:")?,
+    })
 }
 
 /// The kernel's drops on the UDP sockets bound to `port`.
@@ -233,7 +266,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
     let (mut last_points, mut last_map, mut last_alarm) =
         (Last::default(), Last::default(), Last::default());
     let mut commanded: HashSet<u64> = HashSet::new();
-    let mut rss: BTreeMap<String, Vec<(f64, u64)>> = BTreeMap::new();
+    let mut rss: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
     let (mut next_rss, mut drops, mut interrupted) = (started, None, false);
     let mut sim_ended_at: Option<Instant> = None;
     // after the simulator ends, the last revolution's map and command still come
@@ -277,8 +310,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
         if Instant::now() >= next_rss {
             let t = started.elapsed().as_secs_f64();
             for (name, pid) in children.pids() {
-                if let Some(kib) = rss_kib(pid) {
-                    rss.entry(name).or_default().push((t, kib));
+                if let Some(sample) = memory_of(pid, t) {
+                    rss.entry(name).or_default().push(sample);
                 }
             }
             // read while the driver's socket is open
@@ -344,19 +377,29 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
     })
 }
 
-/// Each service's memory: after the warm-up (the first tenth of the run), at the end, at most.
-fn memory(rss: &BTreeMap<String, Vec<(f64, u64)>>) -> Vec<Memory> {
+/// Each service's memory: after the warm-up (the first tenth of the run), at half time, at the
+/// end, at most.
+fn memory(rss: &BTreeMap<String, Vec<Sample>>) -> Vec<Memory> {
     (rss.iter())
         .filter_map(|(name, samples)| {
-            let (t_end, end) = *samples.last()?;
-            let warm = (samples.iter())
-                .find(|(t, _)| *t >= t_end / 10.0)
-                .map_or(end, |s| s.1);
+            let end = *samples.last()?;
+            let at = |share: f64| {
+                *samples
+                    .iter()
+                    .find(|s| s.t >= end.t * share)
+                    .unwrap_or(&end)
+            };
+            let (warm, half) = (at(0.1), at(0.5));
             Some(Memory {
                 service: name.clone(),
-                after_warm_up_kib: warm,
-                end_kib: end,
-                max_kib: samples.iter().map(|s| s.1).max().unwrap_or(end),
+                after_warm_up_kib: warm.rss,
+                half_kib: half.rss,
+                end_kib: end.rss,
+                max_kib: samples.iter().map(|s| s.rss).max().unwrap_or(end.rss),
+                heap_after_warm_up_kib: warm.anon,
+                heap_end_kib: end.anon,
+                shared_after_warm_up_kib: warm.shmem,
+                shared_end_kib: end.shmem,
                 samples: samples.len(),
             })
         })
@@ -400,20 +443,23 @@ fn print(r: &Report) {
         r.lost_end_to_end,
         r.goals_reached
     );
+    let mb = |kib: u64| kib as f64 / 1024.0;
     for m in &r.memory {
         let _ = outln!(
-            "  {:16} RSS {:6.1} MB after the warm-up, {:6.1} MB at the end ({:+.1} MB), {:6.1} MB at most ({} samples){}",
+            "  {:16} RSS {:5.1} MB after the warm-up, {:5.1} at half time, {:5.1} at the end ({:+.1}), {:5.1} at most; heap {:5.1} → {:5.1} MB ({:+.1}), shared memory {:5.1} → {:5.1} MB ({} samples){}",
             m.service,
-            m.after_warm_up_kib as f64 / 1024.0,
-            m.end_kib as f64 / 1024.0,
+            mb(m.after_warm_up_kib),
+            mb(m.half_kib),
+            mb(m.end_kib),
             m.growth_kib() as f64 / 1024.0,
-            m.max_kib as f64 / 1024.0,
+            mb(m.max_kib),
+            mb(m.heap_after_warm_up_kib),
+            mb(m.heap_end_kib),
+            m.heap_growth_kib() as f64 / 1024.0,
+            mb(m.shared_after_warm_up_kib),
+            mb(m.shared_end_kib),
             m.samples,
-            if m.growth_kib() > RSS_FLAT_KIB as i64 {
-                "  GREW"
-            } else {
-                ""
-            }
+            if m.flat() { "" } else { "  GREW" }
         );
     }
     let _ = outln!(
