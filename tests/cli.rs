@@ -205,12 +205,22 @@ fn the_soak_accounts_for_every_revolution_hop_by_hop() {
         (n("simulated"), n("published"), n("maps"), n("commanded"));
     // 15 s at 600 rpm, but for the revolution the simulator starts in
     assert!((148..=151).contains(&simulated), "{json}");
-    // every revolution accounted for: passed on, or lost on a named hop
+    // each hop passes on no more than it got (the counts come from different topics' headers:
+    // a soak counting a sample twice, or on the wrong topic, breaks this), and loopback UDP
+    // loses nothing but the revolution in flight at the end
+    assert!(commanded <= maps && maps <= published, "{json}");
+    assert!(
+        published <= simulated && published + 1 >= simulated,
+        "{json}"
+    );
+    // the end-to-end loss is the sum of the hops' losses
     let expected = published.max(simulated - 1);
-    assert_eq!(published + n("lost_udp"), expected, "{json}");
-    assert_eq!(maps + n("lost_mapper"), published, "{json}");
-    assert_eq!(commanded + n("lost_planner"), maps, "{json}");
-    assert_eq!(commanded + n("lost_end_to_end"), expected, "{json}");
+    assert_eq!(n("lost_end_to_end"), expected - commanded, "{json}");
+    assert_eq!(
+        n("lost_udp") + n("lost_mapper") + n("lost_planner"),
+        n("lost_end_to_end"),
+        "{json}"
+    );
     // on a machine shared with the other tests a stall may cost a revolution, not the stream
     assert!(commanded * 100 >= expected * 95, "{json}");
     let memory = json["memory"].as_array().expect("memory");

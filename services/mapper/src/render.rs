@@ -27,6 +27,15 @@ impl Image {
         }
     }
 
+    /// Writes the image to `path` as an 8-bit RGB PNG.
+    pub fn write_png(&self, path: &std::path::Path) -> Result<(), png::EncodingError> {
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut enc = png::Encoder::new(file, self.width as u32, self.height as u32);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.write_header()?.write_image_data(&self.rgb)
+    }
+
     /// Colours pixel (x, y); nothing outside the image.
     pub fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
         if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {

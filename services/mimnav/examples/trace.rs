@@ -6,7 +6,7 @@
 //! ```sh
 //! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--config FILE] [--set KEY=VALUE]…
 //! ```
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use mimnav_config::Config;
 use mimnav_mapper::render::{Marks, render_map};
@@ -85,7 +85,7 @@ fn run() -> anyhow::Result<()> {
             cmd
         );
         if n % every == 0 {
-            write(&out.join(format!("rev{n:04}.png")), &img)?;
+            img.write_png(&out.join(format!("rev{n:04}.png")))?;
         }
         frames.push((n, img));
         if frames.len() > 4 {
@@ -93,21 +93,8 @@ fn run() -> anyhow::Result<()> {
         }
     }
     for (n, img) in &frames {
-        write(&out.join(format!("last{n:04}.png")), img)?;
+        img.write_png(&out.join(format!("last{n:04}.png")))?;
     }
     println!("outcome {:?}", run.sim().outcome());
-    Ok(())
-}
-
-fn write(path: &Path, img: &mimnav_mapper::render::Image) -> anyhow::Result<()> {
-    let file = std::fs::File::create(path)?;
-    let mut enc = png::Encoder::new(
-        std::io::BufWriter::new(file),
-        img.width as u32,
-        img.height as u32,
-    );
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()?.write_image_data(&img.rgb)?;
     Ok(())
 }

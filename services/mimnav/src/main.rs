@@ -10,6 +10,7 @@ macro_rules! outln {
     }};
 }
 
+mod check_config;
 mod demo;
 mod eval;
 mod family_eval;
@@ -123,20 +124,7 @@ fn main() -> ExitCode {
         Command::Snapshot(args) => snapshot::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
         Command::Install(args) => install::run(args),
-        Command::CheckConfig => outln!(
-            "{}: ok\n[robot] {:#?}\n[velodyne] {:#?}\n[iceoryx2] root-path {} prefix {}",
-            if config.from_file() {
-                config.path.display().to_string()
-            } else {
-                "built-in defaults".into()
-            },
-            config.robot,
-            config.velodyne,
-            config.iceoryx2.global.root_path(),
-            config.iceoryx2.global.prefix
-        )
-        .map(|()| ExitCode::SUCCESS)
-        .map_err(anyhow::Error::from),
+        Command::CheckConfig => check_config::run(&config),
     };
     match result {
         Ok(code) => code,

@@ -29,23 +29,10 @@ pub struct SnapshotArgs {
     timeout: f64,
 }
 
-/// Writes `img` as an RGB PNG.
+/// Writes `img` as an RGB PNG, the path named in the error.
 pub fn write_png(path: &std::path::Path, img: &Image) -> Result<()> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut enc = png::Encoder::new(
-        std::io::BufWriter::new(file),
-        img.width as u32,
-        img.height as u32,
-    );
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc
-        .write_header()
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    w.write_image_data(&img.rgb)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    img.write_png(path)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// The brightest main layer's I_j of every cell (for the shading of solid cells).

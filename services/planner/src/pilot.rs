@@ -91,6 +91,19 @@ impl Decision {
         }
     }
 
+    /// Driving at (v, ω) with `flags`, planned on the map of `header`.
+    fn drive(v: f64, omega: f64, flags: u8, header: &MapHeader) -> Decision {
+        Decision {
+            v,
+            omega,
+            status: command_status::DRIVING,
+            flags,
+            stale: None,
+            source_stamp_ns: header.stamp_ns,
+            source_seq: header.source_seq,
+        }
+    }
+
     /// One line for a person (and systemd's `STATUS=`).
     pub fn describe(&self) -> String {
         let what = match self.status {
@@ -398,15 +411,7 @@ impl Pilot {
                         return Decision::stop(command_status::BLOCKED, flags, None, Some(header));
                     }
                 }
-                Decision {
-                    v,
-                    omega,
-                    status: command_status::DRIVING,
-                    flags,
-                    stale: None,
-                    source_stamp_ns: header.stamp_ns,
-                    source_seq: header.source_seq,
-                }
+                Decision::drive(v, omega, flags, header)
             }
             _ => Decision::stop(command_status::BLOCKED, flags, None, Some(header)),
         }
@@ -494,15 +499,8 @@ impl Pilot {
     ) -> Option<Decision> {
         match self.planner.back_out(&self.classes, grid, v0, omega0, goal) {
             DwaOutcome::Drive { v, omega, .. } if v.is_finite() && omega.is_finite() => {
-                Some(Decision {
-                    v,
-                    omega,
-                    status: command_status::DRIVING,
-                    flags: flags | command_flags::BACKING_OUT,
-                    stale: None,
-                    source_stamp_ns: header.stamp_ns,
-                    source_seq: header.source_seq,
-                })
+                let flags = flags | command_flags::BACKING_OUT;
+                Some(Decision::drive(v, omega, flags, header))
             }
             _ => {
                 self.back_out.until = None;
