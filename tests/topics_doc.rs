@@ -14,7 +14,7 @@ use iceoryx2::service::static_config::messaging_pattern::MessagingPattern as Pat
 use mimnav_config::Config;
 use mimnav_shared::ipc::{self, PrivateDomain, Svc};
 use mimnav_shared::topics::{
-    EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry,
+    BaseState, EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry,
     PlanCell, Point, PointsHeader, RawPacket, ScanHeader, ScanReturn, TruthHeader, VelocityCommand,
 };
 
@@ -175,6 +175,8 @@ pub fn rust_layouts() -> BTreeMap<String, Layout> {
             status, flags, reserved]),
         layout!(Odometry, [seq, stamp_ns, rx_mono_ns, x, y, yaw, v, omega]),
         layout!(Goal, [seq, stamp_mono_ns, x, y, tolerance_m]),
+        layout!(BaseState, [seq, rx_mono_ns, base_stamp_ms, battery_v, halted, base, link, bumper, cliff, wheel_drop,
+            buttons, charger, over_current, reserved, rejected, link_losses]),
         layout!(TruthHeader, [seq, stamp_ns, x, y, yaw, cells, cell_m]),
         layout!(MapHeader, [seq, source_seq, stamp_ns, rx_mono_ns, odom_seq, odom_stamp_ns, x, y, yaw, cells, cell_m,
             layers, processing_us, status, reserved]),
@@ -275,6 +277,7 @@ fn the_documented_topics_and_qos_are_what_the_services_create() {
         ipc::cmd_vel_subscriber(&node).expect("cmd_vel"),
         ipc::odom_subscriber(&node).expect("odom"),
         ipc::goal_subscriber(&node).expect("goal"),
+        ipc::base_state_subscriber(&node).expect("base/state"),
         ipc::truth_subscriber(&node).expect("truth"),
         ipc::layers_subscriber(&node).expect("layers"),
         ipc::plan_subscriber(&node).expect("plan"),

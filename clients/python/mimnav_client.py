@@ -50,6 +50,7 @@ __all__ = [
     "MapHeader",
     "PlanCell",
     "Goal",
+    "BaseState",
     "FoliageHeader",
     "FoliageReturn",
     "Topic",
@@ -60,6 +61,7 @@ __all__ = [
     "CMD_VEL",
     "ODOM",
     "GOAL",
+    "BASE_STATE",
     "SIM_TRUTH",
     "MAP_LAYERS",
     "MAP_PLAN",
@@ -295,7 +297,7 @@ class MapHeader(_Named):
 class PlanCell(_Named):
     """One cell of the planning map (``map/plan``)."""
 
-    TYPE_NAME = "mimnav/PlanCell/v1"
+    TYPE_NAME = "mimnav/PlanCell/v2"
     LAYOUT = (2, 1)
     _fields_ = [("class_", u8), ("cost", u8)]
 
@@ -311,6 +313,31 @@ class Goal(_Named):
         ("x", f64),
         ("y", f64),
         ("tolerance_m", f64),
+    ]
+
+
+class BaseState(_Named):
+    """The robot base's state (``base/state``): safety sensors, link, why it refuses motion."""
+
+    TYPE_NAME = "mimnav/BaseState/v1"
+    LAYOUT = (48, 8)
+    _fields_ = [
+        ("seq", u64),
+        ("rx_mono_ns", u64),
+        ("base_stamp_ms", u32),
+        ("battery_v", f32),
+        ("halted", u16),
+        ("base", u8),
+        ("link", u8),
+        ("bumper", u8),
+        ("cliff", u8),
+        ("wheel_drop", u8),
+        ("buttons", u8),
+        ("charger", u8),
+        ("over_current", u8),
+        ("reserved", u8 * 6),
+        ("rejected", u32),
+        ("link_losses", u32),
     ]
 
 
@@ -386,6 +413,7 @@ LIDAR_PACKETS = Topic("mimnav/lidar/packets", RawPacket, None, False)
 CMD_VEL = Topic("mimnav/cmd_vel", VelocityCommand, None, False)
 ODOM = Topic("mimnav/odom", Odometry, None, False)
 GOAL = Topic("mimnav/goal", Goal, None, False)
+BASE_STATE = Topic("mimnav/base/state", BaseState, None, False)
 SIM_TRUTH = Topic("mimnav/sim/truth", ctypes.c_uint8, TruthHeader, True)
 MAP_LAYERS = Topic("mimnav/map/layers", ctypes.c_float, MapHeader, True)
 MAP_PLAN = Topic("mimnav/map/plan", PlanCell, MapHeader, True)
@@ -401,6 +429,7 @@ TOPICS = {
         CMD_VEL,
         ODOM,
         GOAL,
+        BASE_STATE,
         SIM_TRUTH,
         MAP_LAYERS,
         MAP_PLAN,
@@ -423,6 +452,7 @@ def check_layouts() -> None:
         MapHeader,
         PlanCell,
         Goal,
+        BaseState,
         FoliageHeader,
         FoliageReturn,
     ):

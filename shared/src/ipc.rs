@@ -696,6 +696,20 @@ pub fn odom_subscriber(node: &Node<Svc>) -> Result<ValueSubscriber<topics::Odome
     ValueSubscriber::open(node, topics::ODOM)
 }
 
+/// Opens `base/state` for publishing.
+pub fn base_state_publisher(
+    node: &Node<Svc>,
+) -> Result<ValuePublisher<topics::BaseState>, IpcError> {
+    ValuePublisher::open(node, topics::BASE_STATE)
+}
+
+/// Opens `base/state` for receiving.
+pub fn base_state_subscriber(
+    node: &Node<Svc>,
+) -> Result<ValueSubscriber<topics::BaseState>, IpcError> {
+    ValueSubscriber::open(node, topics::BASE_STATE)
+}
+
 /// Opens `goal` for publishing.
 pub fn goal_publisher(node: &Node<Svc>) -> Result<ValuePublisher<topics::Goal>, IpcError> {
     ValuePublisher::open(node, topics::GOAL)

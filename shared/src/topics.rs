@@ -224,6 +224,7 @@ mod tests {
         assert_eq!(core::mem::size_of::<PointsHeader>(), 56);
         assert_eq!(core::mem::size_of::<ScanHeader>(), 40);
         assert_eq!(core::mem::size_of::<FoliageReturn>(), 12);
+        assert_eq!(core::mem::size_of::<BaseState>(), 48);
         assert_eq!(
             core::mem::size_of::<FoliageHeader>(),
             56 + 4 * MAX_FOLIAGE_SECTORS
@@ -330,6 +331,21 @@ pub mod cell_class {
     pub const GLASS: u8 = 3;
     /// Never observed (or outside the world).
     pub const UNKNOWN: u8 = 4;
+    /// Glass drawn along a pane's fitted line where the pane itself has not been seen: the
+    /// stretch may be glass or an opening until a beam meets it squarely (issue 22). Only the
+    /// mapper's planning map holds it, never ground truth. Kept off like glass by the dynamic
+    /// window; the route may cross it at a cost, so the robot goes to look.
+    pub const SUSPECTED_GLASS: u8 = 5;
+
+    /// Glass seen or suspected: what the robot must not drive into.
+    pub fn is_glass(class: u8) -> bool {
+        class == GLASS || class == SUSPECTED_GLASS
+    }
+
+    /// Solid, glass or suspected glass: a cell the body must not touch.
+    pub fn blocks(class: u8) -> bool {
+        class == SOLID || is_glass(class)
+    }
 }
 
 /// User header of a `sim/truth` sample: the true class of every map cell around the robot.
@@ -408,11 +424,11 @@ pub struct MapHeader {
 /// One cell of the planning map.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("mimnav/PlanCell/v1")]
+#[type_name("mimnav/PlanCell/v2")]
 pub struct PlanCell {
     /// [`cell_class`].
     pub class: u8,
-    /// Planning cost, 0–255 for 0–1: free 0, passable small, solid and glass 255.
+    /// Planning cost, 0–255 for 0–1: free 0, passable small, solid, glass and suspected glass 255.
     pub cost: u8,
 }
 
@@ -434,6 +450,90 @@ pub struct Goal {
     pub y: f64,
     /// Reached within this distance, m.
     pub tolerance_m: f64,
+}
+
+/// Topic of the robot base's state: [`BaseState`], published by the base's service
+/// (`mimnav-kobuki`, `mimnav-spot`) with every feedback and when the link changes.
+pub const BASE_STATE: &str = "mimnav/base/state";
+
+/// [`BaseState::base`]: which base published it.
+pub mod base_kind {
+    /// The Turtlebot 2's Kobuki base.
+    pub const KOBUKI: u8 = 1;
+    /// Boston Dynamics Spot.
+    pub const SPOT: u8 = 2;
+}
+
+/// [`BaseState::link`].
+pub mod base_link {
+    /// The base answers.
+    pub const UP: u8 = 0;
+    /// The device or connection is gone (unplugged, server down): nothing moves until it is back.
+    pub const DOWN: u8 = 1;
+}
+
+/// Bits of [`BaseState::halted`]: why the base refuses (some) motion now. Zero: it follows
+/// `cmd_vel`.
+pub mod base_halt {
+    /// A bumper is pressed: forward motion refused (backing off and turning allowed).
+    pub const BUMPER: u16 = 1;
+    /// A cliff sensor sees no floor: forward motion refused.
+    pub const CLIFF: u16 = 2;
+    /// A wheel has dropped (the robot is lifted): every motion refused.
+    pub const WHEEL_DROP: u16 = 4;
+    /// The last `cmd_vel` expired (`valid_until_mono_ns` passed) or none came: stopped.
+    pub const COMMAND_EXPIRED: u16 = 8;
+    /// The link to the base is down.
+    pub const LINK_DOWN: u16 = 16;
+    /// An e-stop is engaged (Spot).
+    pub const ESTOP: u16 = 32;
+    /// The lease is lost (Spot).
+    pub const NO_LEASE: u16 = 64;
+    /// The motors are off (Spot not powered or not standing).
+    pub const MOTORS_OFF: u16 = 128;
+    /// A wheel's motor drew too much current (Kobuki).
+    pub const OVER_CURRENT: u16 = 256;
+}
+
+/// The robot base's state: its safety sensors, its link and why it refuses motion.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/BaseState/v1")]
+pub struct BaseState {
+    /// Sequence number.
+    pub seq: u64,
+    /// `CLOCK_MONOTONIC` when the feedback it reports was received, ns.
+    pub rx_mono_ns: u64,
+    /// The base's own timestamp of that feedback, ms (Kobuki: wraps at 65536), 0 when none.
+    pub base_stamp_ms: u32,
+    /// Battery voltage, V (NaN when unknown).
+    pub battery_v: f32,
+    /// [`base_halt`] bits.
+    pub halted: u16,
+    /// [`base_kind`].
+    pub base: u8,
+    /// [`base_link`].
+    pub link: u8,
+    /// Bumpers pressed (Kobuki bits: 1 right, 2 centre, 4 left).
+    pub bumper: u8,
+    /// Cliff sensors without floor (1 right, 2 centre, 4 left).
+    pub cliff: u8,
+    /// Wheels dropped (1 right, 2 left).
+    pub wheel_drop: u8,
+    /// Buttons pressed (Kobuki: 1 B0, 2 B1, 4 B2).
+    pub buttons: u8,
+    /// Charger state as the base reports it (Kobuki: 0 discharging, 2 docking charged,
+    /// 6 docking charging, 18 adapter charged, 22 adapter charging).
+    pub charger: u8,
+    /// Wheels over current (1 left, 2 right).
+    pub over_current: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 6],
+    /// Frames or messages from the base rejected since the service started (bad checksum,
+    /// malformed, refused).
+    pub rejected: u32,
+    /// Times the link went down since the service started.
+    pub link_losses: u32,
 }
 
 /// Topic of the foliage classifier's verdicts, one per planar scan: `[FoliageReturn]` with a

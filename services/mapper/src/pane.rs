@@ -55,6 +55,9 @@ const BEYOND_M: f64 = 0.25;
 /// A pane is extended only once it has been seen in at least this many revolutions: one stray
 /// spike does not draw a line across the map.
 const MIN_REVOLUTIONS: u32 = 2;
+/// A stretch of a pane's line between what was seen open and a solid no longer than this is the
+/// rest of a passage beside a frame, not drawn; a longer one is drawn (suspected), m.
+const PASSAGE_M: f64 = 1.0;
 /// Lines nearer the sensor than this are not tested for openings (the beams cross them at
 /// angles the robot's own motion blurs), m.
 const MIN_TEST_M: f64 = 0.3;
@@ -383,10 +386,11 @@ impl Panes {
 
     /// Draws the panes into `classes`/`cost` seen from `pose`: the evidence as glass (over
     /// anything but solid), and each pane seen in two revolutions or more extended along its line
-    /// up to `extend_m` from its evidence, stopping at open evidence, at a solid or passable cell
-    /// (past a solid no longer than `mullion_m` with the line going on beyond it: a post),
-    /// at an unknown cell something nearer hides (`occluded`: the inside of a pillar the pane
-    /// meets) and at the grid's edge. Returns what was drawn.
+    /// as suspected glass ([`cell_class::SUSPECTED_GLASS`]) up to `extend_m` from its evidence,
+    /// stopping at open evidence, at a solid or passable cell (past a solid no longer than
+    /// `mullion_m` with the line going on beyond it: a post), at an unknown cell something nearer
+    /// hides (`occluded`: the inside of a pillar the pane meets) and at the grid's edge. Returns
+    /// what was drawn.
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
         &mut self,
@@ -412,7 +416,7 @@ impl Panes {
                 if let Some(i) = cell(x, y)
                     && classes[i] != cell_class::SOLID
                 {
-                    if classes[i] != cell_class::GLASS {
+                    if !cell_class::is_glass(classes[i]) {
                         drawn.evidence += 1;
                     }
                     classes[i] = cell_class::GLASS;
@@ -462,6 +466,7 @@ impl Panes {
                 })
             };
             let limit = (extend_m / bin_m).round() as usize;
+            let passage_bins = (PASSAGE_M / bin_m).round() as usize;
             // a solid stretch of the line no longer than `mullion_m`, with the line going on
             // beyond it, is a post between panes (a mullion, a frame's joint), not the pane's
             // end: the run goes on past it (a framed partition seen at a slant showed its
@@ -486,9 +491,10 @@ impl Panes {
             }
             // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
             // glass or open, with nothing solid or passable between; a run from open evidence
-            // that ends at something solid or passable is dropped — the rest of an opening
-            // between a frame and what was seen open (a passage beside a pillar), not a pane
-            // that may go on past a door
+            // that ends at something solid or passable within `PASSAGE_M` is dropped — the rest
+            // of an opening between a frame and what was seen open (a passage beside a pillar),
+            // not a pane that may go on past a door. A longer one is kept: a partition's far pane
+            // running from the door to the room's wall
             for forward in [true, false] {
                 let mut run: Option<(usize, bool)> = None;
                 let mut run_bins: Vec<usize> = Vec::new();
@@ -507,7 +513,7 @@ impl Panes {
                             run = run.map(|(r, o)| (r + 1, o)).filter(|&(r, _)| r <= limit);
                         }
                         _ if blocked(self.bin_cells[b]) => {
-                            if run.is_some_and(|(_, from_open)| from_open) {
+                            if run.is_some_and(|(r, from_open)| from_open && r <= passage_bins) {
                                 for &q in &run_bins {
                                     self.reach[q] = false;
                                 }
@@ -529,12 +535,14 @@ impl Panes {
                     }
                 }
             }
+            // drawn as suspected glass: a pane's line where the pane was not seen may be glass
+            // or an opening never faced, and the planner treats the two apart
             for b in 0..n {
                 if self.reach[b]
                     && let Some(i) = self.bin_cells[b]
-                    && classes[i] != cell_class::GLASS
+                    && !cell_class::is_glass(classes[i])
                 {
-                    classes[i] = cell_class::GLASS;
+                    classes[i] = cell_class::SUSPECTED_GLASS;
                     cost[i] = 255;
                     drawn.extended += 1;
                 }

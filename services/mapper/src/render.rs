@@ -76,6 +76,8 @@ pub const FREE: [u8; 3] = [0, 0, 0];
 pub const PASSABLE: [u8; 3] = [40, 190, 60];
 /// Glass.
 pub const GLASS: [u8; 3] = [250, 220, 0];
+/// Suspected glass: a pane's line drawn on where the pane was not seen (dark yellow).
+pub const SUSPECTED_GLASS: [u8; 3] = [150, 120, 0];
 /// Never observed.
 pub const UNKNOWN: [u8; 3] = [38, 44, 56];
 /// The robot.
@@ -116,6 +118,7 @@ pub fn render_map(grid: GridSpec, classes: &[u8], intensity: &[f32], marks: &Mar
                 cell_class::FREE => FREE,
                 cell_class::PASSABLE => PASSABLE,
                 cell_class::GLASS => GLASS,
+                cell_class::SUSPECTED_GLASS => SUSPECTED_GLASS,
                 cell_class::SOLID => {
                     let v = intensity.get(i).copied().unwrap_or(0.0) / (2.0 * per_return);
                     let g = (110.0 + 145.0 * v.clamp(0.0, 1.0)) as u8;

@@ -111,6 +111,20 @@ pub fn score_excluding(
     range_m: f32,
     exclude: Option<&[bool]>,
 ) -> MapScore {
+    // suspected glass is scored as the glass it is drawn as (the robot keeps off both)
+    let glass_only: Vec<u8>;
+    let map = if map.contains(&cell_class::SUSPECTED_GLASS) {
+        glass_only = map
+            .iter()
+            .map(|&m| match m {
+                cell_class::SUSPECTED_GLASS => cell_class::GLASS,
+                m => m,
+            })
+            .collect();
+        &glass_only[..]
+    } else {
+        map
+    };
     let mut s = MapScore::default();
     for r in 0..grid.cells {
         for c in 0..grid.cells {

@@ -550,6 +550,7 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
             // the geometric shortest way: no preference for room to turn
             swing_m: 0.0,
             swing_weight: 0.0,
+            suspect_weight: 0.0,
             settle_within_m: 0.0,
         },
         grid,
@@ -634,6 +635,7 @@ fn plot(scene: &Scene, episodes: &[&Episode]) -> Image {
                 cell_class::SOLID => [200, 200, 200],
                 cell_class::PASSABLE => render::PASSABLE,
                 cell_class::GLASS => render::GLASS,
+                cell_class::SUSPECTED_GLASS => render::SUSPECTED_GLASS,
                 _ => [0, 0, 0],
             };
             img.put(u as i64, v as i64, colour);

@@ -98,7 +98,7 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
 fn breakdown(config: &Config, maps: &[Case]) {
     use mimnav_planner::dwa;
     use mimnav_planner::inflate::{KernelCache, plan_cost};
-    use mimnav_planner::route::{Route, RouteParams};
+    use mimnav_planner::route::Route;
     let params = config.planner_params();
     let grid = config.map.grid();
     let p = &params.planner;
@@ -129,14 +129,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
         t[1] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         route.build(
-            &RouteParams {
-                cell_m: p.route_cell_m as f32,
-                radius_m: params.footprint_m() as f32,
-                cost_weight: p.route_cost_weight as f32,
-                swing_m: params.swing_m() as f32,
-                swing_weight: p.route_swing_weight as f32,
-                settle_within_m: reach,
-            },
+            &params.route_params(reach),
             grid,
             classes,
             &cost,

@@ -40,7 +40,7 @@ impl Clearance {
         for r in lo..lo + side {
             self.data
                 .extend(classes[r * n + lo..r * n + lo + side].iter().map(|&c| {
-                    if c == cell_class::SOLID || c == cell_class::GLASS {
+                    if cell_class::blocks(c) {
                         0.0
                     } else {
                         cap_m
@@ -67,7 +67,7 @@ impl Clearance {
 pub fn clearance(classes: &[u8], grid: GridSpec, cap_m: f32, out: &mut Vec<f32>) {
     out.clear();
     out.extend(classes.iter().map(|&c| {
-        if c == cell_class::SOLID || c == cell_class::GLASS {
+        if cell_class::blocks(c) {
             0.0
         } else {
             cap_m

@@ -59,6 +59,11 @@ pub struct PlannerConfig {
     /// metres more, in proportion to the shortfall, so the route keeps the body where it can
     /// still turn (0: no preference; a round robot has none).
     pub route_swing_weight: f64,
+    /// Suspected glass — a pane's line drawn on where the pane was not seen, which may be an
+    /// opening never faced — does not close the route: a metre of route where the footprint
+    /// would touch it costs this many metres more, so the route leads there only when no
+    /// cheaper way is known, and the robot goes to face it (0: it closes the route like glass).
+    pub route_suspect_weight: f64,
     /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
     pub use_foliage: bool,
     /// When the map holds no route to the goal for the robot's body, the planner drives on by
@@ -113,6 +118,7 @@ impl Default for PlannerConfig {
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             route_swing_weight: 4.0,
+            route_suspect_weight: 10.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
@@ -177,6 +183,12 @@ impl PlannerConfig {
             self.route_swing_weight,
             0.0,
             100.0,
+        );
+        r.check(
+            "planner.route_suspect_weight",
+            self.route_suspect_weight,
+            0.0,
+            1000.0,
         );
         r.check("planner.glass_slow_mps", self.glass_slow_mps, 0.01, 10.0);
         r.check("planner.no_route_stop_s", self.no_route_stop_s, 0.0, 3600.0);

@@ -376,11 +376,8 @@ mod tests {
         route.build(
             &crate::route::RouteParams {
                 cell_m: 0.2,
-                radius_m: p.footprint_m() as f32,
                 cost_weight: 1.0,
-                swing_m: p.swing_m() as f32,
-                swing_weight: p.planner.route_swing_weight as f32,
-                settle_within_m: 0.0,
+                ..p.route_params(0.0)
             },
             grid,
             classes,

@@ -143,7 +143,7 @@ pub fn plan_cost(
         for (c, &class) in row.iter().enumerate() {
             let i = base + c;
             match class {
-                cell_class::SOLID | cell_class::GLASS => {
+                cell_class::SOLID | cell_class::GLASS | cell_class::SUSPECTED_GLASS => {
                     out[i] = 255;
                     if let Some(k) = kernel {
                         for &(dr, dc, cost) in &k.taps {

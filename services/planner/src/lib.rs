@@ -31,7 +31,7 @@ use clearance::Clearance;
 use dwa::DwaOutcome;
 use inflate::KernelCache;
 pub use params::PlannerParams;
-use route::{Route, RouteParams};
+use route::Route;
 
 /// Marks the cells of obstacles the foliage classifier confirmed solid (DESIGN §8: "obstacles
 /// the foliage classifier confirms are solid for the planner"), so a trunk or a rock hidden in
@@ -154,14 +154,7 @@ impl Planner {
             .compute(classes, grid, reach as f32 + 2.0 * grid.cell_m, 5.0);
         let route = if p.planner.route_cell_m > 0.0 {
             self.route.build(
-                &RouteParams {
-                    cell_m: p.planner.route_cell_m as f32,
-                    radius_m: p.footprint_m() as f32,
-                    cost_weight: p.planner.route_cost_weight as f32,
-                    swing_m: p.swing_m() as f32,
-                    swing_weight: p.planner.route_swing_weight as f32,
-                    settle_within_m: reach as f32,
-                },
+                &p.route_params(reach as f32),
                 grid,
                 classes,
                 &self.cost,
@@ -226,7 +219,7 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
     for r in r0.min(r1)..=r0.max(r1) {
         for c in c0.min(c1)..=c0.max(c1) {
             let class = classes[grid.index(r, c)];
-            if class != cell_class::GLASS && class != cell_class::SOLID {
+            if !cell_class::blocks(class) {
                 continue;
             }
             let (x, y) = grid.center_of(r, c);
@@ -234,7 +227,7 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
                 continue;
             }
             let d = body.signed_distance(f64::from(x), f64::from(y));
-            if d < nearest && (class == cell_class::GLASS || is_post(classes, grid, r, c)) {
+            if d < nearest && (cell_class::is_glass(class) || is_post(classes, grid, r, c)) {
                 nearest = d;
             }
         }
@@ -293,7 +286,7 @@ fn free_under_body(classes: &[u8], grid: GridSpec, body: &Body, out: &mut Vec<u8
     for r in r0.min(r1)..=r0.max(r1) {
         for c in c0.min(c1)..=c0.max(c1) {
             let i = grid.index(r, c);
-            let blocking = matches!(classes[i], cell_class::SOLID | cell_class::GLASS);
+            let blocking = cell_class::blocks(classes[i]);
             let (x, y) = grid.center_of(r, c);
             if blocking && body.signed_distance(f64::from(x), f64::from(y)) < edge {
                 if !copied {

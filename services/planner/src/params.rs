@@ -59,6 +59,21 @@ impl PlannerParams {
         self.robot.body().outline(OUTLINE_SPACING_M)
     }
 
+    /// The route search's settings (`planner.route_*`), settling the lengths within
+    /// `settle_within_m` of the robot.
+    pub fn route_params(&self, settle_within_m: f32) -> crate::route::RouteParams {
+        let p = &self.planner;
+        crate::route::RouteParams {
+            cell_m: p.route_cell_m as f32,
+            radius_m: self.footprint_m() as f32,
+            cost_weight: p.route_cost_weight as f32,
+            swing_m: self.swing_m() as f32,
+            swing_weight: p.route_swing_weight as f32,
+            suspect_weight: p.route_suspect_weight as f32,
+            settle_within_m,
+        }
+    }
+
     /// How far from the robot a rollout's footprint can reach: the top speed over the horizon,
     /// the body's enclosing radius (the end discs of its cover, if farther) and the margin, m.
     pub fn reach_m(&self) -> f64 {

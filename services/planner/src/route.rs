@@ -56,8 +56,10 @@ pub struct Route {
     open: Vec<bool>,
     /// The cheapest planning cost (0–255) of each coarse cell's map cells.
     weight: Vec<u8>,
-    /// Coarse clearance, m.
+    /// Coarse clearance from solids and glass, m.
     clear: Vec<f32>,
+    /// Coarse clearance from solids, glass and suspected glass, m.
+    soft: Vec<f32>,
     /// The extra cost per metre of each coarse cell for lacking room to turn.
     swing: Vec<f32>,
     /// `open` with a closed border two cells wide.
@@ -84,6 +86,7 @@ impl Default for Route {
             open: Vec::new(),
             weight: Vec::new(),
             clear: Vec::new(),
+            soft: Vec::new(),
             swing: Vec::new(),
             padded: Vec::new(),
             dist: Vec::new(),
@@ -112,6 +115,13 @@ pub struct RouteParams {
     pub swing_m: f32,
     /// The most a metre of route costs extra for lacking that room.
     pub swing_weight: f32,
+    /// Suspected glass (a pane's line drawn on where the pane was not seen: glass, or an
+    /// opening never faced) does not close the route; a metre of route where the footprint
+    /// would touch it costs this many metres more. The route then leads to the suspected
+    /// stretch when there is no cheaper way, and the robot, kept off it by the dynamic window,
+    /// faces it: a beam meets it squarely and it turns into glass or an opening. 0: suspected
+    /// glass closes the route like glass.
+    pub suspect_weight: f32,
     /// The search stops once every open cell within this distance of the robot (the map's
     /// centre) has its final length — all the dynamic window's rollouts can ask for (their reach
     /// plus two coarse cells for the interpolation). Cells beyond may keep longer, provisional
@@ -148,11 +158,17 @@ impl Route {
         if classes.len() < grid.len() || cost.len() < grid.len() {
             return;
         }
-        // coarse obstacles (any solid or glass map cell) and the cheapest cost of each coarse
-        // cell; `weight` holds the cost for now
+        // coarse obstacles (any solid or glass map cell; `soft`: or suspected glass) and the
+        // cheapest cost of each coarse cell; `weight` holds the cost for now
+        let far = self.coarse.cell_m * cells as f32;
         let mut obstacle = std::mem::take(&mut self.clear);
         obstacle.clear();
-        obstacle.resize(m, self.coarse.cell_m * cells as f32);
+        obstacle.resize(m, far);
+        let mut soft = std::mem::take(&mut self.soft);
+        soft.clear();
+        soft.resize(m, far);
+        let suspects = p.suspect_weight > 0.0;
+        let mut any_suspected = false;
         // first down the map rows of each coarse row, element by element (the compiler
         // vectorises this pass over every map cell), then along the one reduced row
         let (mut any_obstacle, mut cheapest) = (
@@ -172,7 +188,9 @@ impl Route {
                     .zip(cl)
                     .zip(co)
                 {
-                    *o |= u8::from(c == cell_class::SOLID) | u8::from(c == cell_class::GLASS);
+                    *o |= u8::from(c == cell_class::SOLID)
+                        | u8::from(c == cell_class::GLASS)
+                        | u8::from(c == cell_class::SUSPECTED_GLASS) << 1;
                     *m = (*m).min(w);
                 }
             }
@@ -182,8 +200,13 @@ impl Route {
                 .zip(cheapest.chunks(factor))
                 .enumerate()
             {
-                if o.iter().any(|&o| o != 0) {
+                let o = o.iter().fold(0, |a, &o| a | o);
+                if o & 1 != 0 || (o != 0 && !suspects) {
                     obstacle[row + kc] = 0.0;
+                }
+                if o != 0 {
+                    soft[row + kc] = 0.0;
+                    any_suspected |= o & 1 == 0;
                 }
                 self.weight[row + kc] = m.iter().copied().min().unwrap_or(u8::MAX);
             }
@@ -191,6 +214,11 @@ impl Route {
         self.row_obstacle = any_obstacle;
         self.row_cost = cheapest;
         chamfer(&mut obstacle, cells, self.coarse.cell_m);
+        if suspects && any_suspected {
+            chamfer(&mut soft, cells, self.coarse.cell_m);
+        } else {
+            soft.clone_from(&obstacle);
+        }
         // Optimistic: a coarse cell can be crossed when it holds no obstacle and its centre is
         // within half a coarse cell of the clearance the footprint needs, so every door the
         // footprint fits through stays open here; the DWA's footprint test stays the safety
@@ -199,13 +227,20 @@ impl Route {
         for (open, &d) in self.open.iter_mut().zip(&obstacle) {
             *open = d > 0.0 && d >= need;
         }
+        // the extra cost per metre: lacking room to turn (from anything glass), and where the
+        // footprint would touch suspected glass — within half a coarse cell more, so the band
+        // is three cells wide and no knight's move jumps it
+        let touch = p.radius_m + 0.5 * self.coarse.cell_m;
         self.swing.clear();
-        self.swing
-            .extend(obstacle.iter().map(|&d| match p.swing_m > 0.0 {
+        self.swing.extend(soft.iter().map(|&d| {
+            let swing = match p.swing_m > 0.0 {
                 true => p.swing_weight * ((p.radius_m + p.swing_m - d) / p.swing_m).clamp(0.0, 1.0),
                 false => 0.0,
-            }));
+            };
+            swing + if d < touch { p.suspect_weight } else { 0.0 }
+        }));
         self.clear = obstacle;
+        self.soft = soft;
         let scale = p.cost_weight / 255.0;
         // the goal's own cell, or the border when the goal lies outside the map
         let cs = self.coarse;
@@ -392,6 +427,7 @@ mod tests {
                 cost_weight: 1.0,
                 swing_m: 0.0,
                 swing_weight: 0.0,
+                suspect_weight: 0.0,
                 settle_within_m: within,
             },
             grid,
@@ -423,6 +459,7 @@ mod tests {
                     cost_weight: 0.0,
                     swing_m: 0.35,
                     swing_weight,
+                    suspect_weight: 0.0,
                     settle_within_m: 0.0,
                 },
                 grid(),
@@ -453,6 +490,68 @@ mod tests {
         let (a, b) = (plain.value(0.0, 0.0), roomy.value(0.0, 0.0));
         assert!(a.is_finite() && b.is_finite(), "through the door: {a} {b}");
         assert!(b > a, "{a} {b}");
+    }
+
+    /// Issue 22: a pane's line drawn on where the pane was not seen may hide the door. Closed,
+    /// it left no route and the robot froze before a door it had never faced; crossable at a
+    /// cost, the route leads there when nothing cheaper is known, and goes round when a way
+    /// round is cheaper. Glass seen stays closed.
+    #[test]
+    fn suspected_glass_is_crossed_at_a_cost_and_seen_glass_stays_closed() {
+        let route = |c: &[u8], suspect_weight: f32| {
+            let mut r = Route::default();
+            r.build(
+                &RouteParams {
+                    cell_m: 0.2,
+                    radius_m: 0.25,
+                    cost_weight: 0.0,
+                    swing_m: 0.0,
+                    swing_weight: 0.0,
+                    suspect_weight,
+                    settle_within_m: 0.0,
+                },
+                grid(),
+                c,
+                &vec![0; c.len()],
+                (3.0, 0.0),
+            );
+            r
+        };
+        // glass seen straight ahead (|y| < 1 m) across x = 1.5 m, walls closing the rest, and
+        // the line drawn on as suspected for 1 m either side
+        let wall = |gap: f32| {
+            classes(move |x, y| match ((x - 1.5).abs() < 0.05, y.abs()) {
+                (true, a) if a < 1.0 => cell_class::GLASS,
+                (true, a) if a < 2.0 => cell_class::SUSPECTED_GLASS,
+                (true, a) if a < 2.0 + gap => cell_class::FREE,
+                (true, _) => cell_class::SOLID,
+                _ => cell_class::FREE,
+            })
+        };
+        let closed = wall(0.0);
+        assert!(route(&closed, 0.0).value(0.0, 0.0).is_infinite(), "suspected closes");
+        let r = route(&closed, 10.0);
+        let v = r.value(0.0, 0.0);
+        // the straight way is 3 m; by the suspected stretch about 3.9 m plus its penalty
+        assert!(v.is_finite() && v > 5.0, "through the suspected stretch, at a cost: {v}");
+        // from beside the suspected stretch the way is shorter than from in front of the glass
+        assert!(r.value(0.0, 1.5) < r.value(0.0, 0.0), "it leads to the suspected stretch");
+        // a gap 1 m wide past the suspected stretch: the way round is taken (it pays a little
+        // where it passes the stretch's end, not the crossing's penalty)
+        let open = wall(1.0);
+        let v_open = route(&open, 10.0).value(0.0, 0.0);
+        let v_free = route(&open, 0.0).value(0.0, 0.0);
+        assert!(
+            v_open < v_free + 0.5 && v_open < v,
+            "the way round is taken: {v_open} against {v_free} (through: {v})"
+        );
+        // seen glass everywhere on the line: no route at any weight
+        let glass = classes(|x, y| match ((x - 1.5).abs() < 0.05, y.abs()) {
+            (true, a) if a < 2.0 => cell_class::GLASS,
+            (true, _) => cell_class::SOLID,
+            _ => cell_class::FREE,
+        });
+        assert!(route(&glass, 10.0).value(0.0, 0.0).is_infinite());
     }
 
     fn classes(f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
@@ -601,6 +700,7 @@ mod tests {
                 cost_weight: 1.0,
                 swing_m: 0.0,
                 swing_weight: 0.0,
+                suspect_weight: 0.0,
                 settle_within_m: 1.0,
             },
             grid(),
