@@ -715,4 +715,125 @@ mod tests {
         assert!(encode_frame(&[0; 256], &mut out).is_err());
         assert!(out.is_empty());
     }
+
+    mod streams {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// A piece of a stream: garbage, or a valid frame of 1 to 4 sub-payloads.
+        #[derive(Debug, Clone)]
+        enum Piece {
+            Garbage(Vec<u8>),
+            Frame(Vec<u8>),
+        }
+
+        fn valid_frame() -> impl Strategy<Value = Vec<u8>> {
+            prop::collection::vec(
+                (any::<u8>(), prop::collection::vec(any::<u8>(), 1..40)),
+                1..5,
+            )
+            .prop_map(|subs| {
+                let mut payload = Vec::new();
+                for (id, data) in subs {
+                    push_subpayload(&mut payload, id, &data).unwrap();
+                }
+                let mut out = Vec::new();
+                encode_frame(&payload, &mut out).unwrap();
+                out
+            })
+        }
+
+        /// Garbage that cannot start a header (no 0xAA), or any bytes at all.
+        fn piece(clean_garbage: bool) -> impl Strategy<Value = Piece> {
+            let byte = if clean_garbage {
+                prop_oneof![0u8..0xAA, 0xABu8..=0xFF].boxed()
+            } else {
+                prop_oneof![any::<u8>(), Just(0xAAu8), Just(0x55u8)].boxed()
+            };
+            prop_oneof![
+                prop::collection::vec(byte, 0..30).prop_map(Piece::Garbage),
+                valid_frame().prop_map(Piece::Frame),
+            ]
+        }
+
+        fn stream(pieces: &[Piece]) -> (Vec<u8>, Vec<Vec<u8>>, u64) {
+            let mut bytes = Vec::new();
+            let mut frames = Vec::new();
+            let mut garbage = 0;
+            for p in pieces {
+                match p {
+                    Piece::Garbage(g) => {
+                        bytes.extend(g);
+                        garbage += g.len() as u64;
+                    }
+                    Piece::Frame(f) => {
+                        bytes.extend(f);
+                        frames.push(f[3..f.len() - 1].to_vec());
+                    }
+                }
+            }
+            (bytes, frames, garbage)
+        }
+
+        /// Feeds `bytes` in chunks of the sizes in `cuts` (cycled), collecting what comes out.
+        fn feed(bytes: &[u8], cuts: &[usize]) -> (FrameParser, Vec<Result<Frame, FrameError>>) {
+            let mut p = FrameParser::new();
+            let mut out = Vec::new();
+            let mut rest = bytes;
+            let mut k = 0;
+            while !rest.is_empty() {
+                let n = cuts[k % cuts.len()].min(rest.len());
+                k += 1;
+                let (chunk, tail) = rest.split_at(n);
+                out.extend(p.push(chunk));
+                assert!(p.pending() <= MAX_FRAME);
+                rest = tail;
+            }
+            (p, out)
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(512))]
+
+            /// Valid frames between garbage that holds no header byte, cut anywhere: exactly
+            /// the frames, in order, and every other byte counted as garbage.
+            #[test]
+            fn yields_exactly_the_valid_frames(
+                pieces in prop::collection::vec(piece(true), 0..20),
+                cuts in prop::collection::vec(1usize..80, 1..10),
+            ) {
+                let (bytes, frames, garbage) = stream(&pieces);
+                let (p, out) = feed(&bytes, &cuts);
+                prop_assert!(out.iter().all(|r| r.is_ok()), "{out:?}");
+                prop_assert_eq!(payloads(&out), frames.clone());
+                prop_assert_eq!(p.stats().garbage_bytes, garbage);
+                prop_assert_eq!(p.stats().frames, frames.len() as u64);
+                prop_assert_eq!(p.pending(), 0);
+                check_accounting(&p);
+            }
+
+            /// Any bytes at all, with valid frames among them, cut anywhere: no panic, the same
+            /// result whatever the cuts, every frame yielded checks, and the counts add up.
+            #[test]
+            fn any_stream_is_handled_the_same_whatever_the_cuts(
+                pieces in prop::collection::vec(piece(false), 0..20),
+                cuts in prop::collection::vec(1usize..80, 1..10),
+            ) {
+                let (bytes, _, _) = stream(&pieces);
+                let (p, out) = feed(&bytes, &cuts);
+                let (whole, whole_out) = feed(&bytes, &[usize::MAX]);
+                prop_assert_eq!(&out, &whole_out);
+                prop_assert_eq!(p.stats(), whole.stats());
+                for f in out.iter().flatten() {
+                    let at = f.stream_offset() as usize;
+                    let wire = &bytes[at..at + f.wire_len()];
+                    prop_assert_eq!(&wire[..2], &[HEADER0, HEADER1]);
+                    prop_assert_eq!(xor(&wire[2..]), 0);
+                    prop_assert_eq!(&wire[3..wire.len() - 1], f.payload());
+                    prop_assert!(Frame::from_payload(f.payload()).is_ok());
+                }
+                check_accounting(&p);
+            }
+        }
+    }
 }
