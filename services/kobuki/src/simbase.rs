@@ -412,7 +412,7 @@ pub enum ServeEnd {
     Stopped,
     /// [`Controls::unplug`] was called and the port closed.
     Unplugged,
-    /// The other side of the port closed (a read returned end of file).
+    /// The other side of the port closed (a read returned end of file or a hang-up).
     PeerClosed,
 }
 
@@ -493,7 +493,9 @@ pub fn serve<P: serialport::SerialPort>(
         // the port's timeout bounds the read; setting it only stores it
         let _ = port.set_timeout(wait);
         match port.read(&mut buf) {
+            // end of file, or (serialport's poll) a hang-up: no one has the other side open
             Ok(0) => return Ok(ServeEnd::PeerClosed),
+            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => return Ok(ServeEnd::PeerClosed),
             Ok(n) => base.receive(&buf[..n]),
             Err(e)
                 if matches!(
