@@ -3,7 +3,7 @@
 //! The odometry frame follows REP-105: x forward, y left, yaw counter-clockwise, starting at
 //! the origin with yaw 0 at the first feedback. Each frame:
 //! - each wheel's travel is its encoder difference, taken as a wrapping `u16` difference read
-//!   as `i16` (so 65535 → 2 is +3 ticks), times [`M_PER_TICK`](crate::M_PER_TICK); the
+//!   as `i16` (so 65535 → 2 is +3 ticks), times [`M_PER_TICK`]; the
 //!   distance is the mean of the two wheels;
 //! - the yaw is the gyro's angle minus its first reading, unwrapped (a step is taken the
 //!   short way round), so it is continuous across ±180° and counts whole turns; a frame with
