@@ -27,7 +27,13 @@ use mimnav_velodyne::driver::Driver;
 use mimnav_velodyne::revolution::{AssemblerConfig, Revolution};
 
 /// The fuzz targets, by the name of their file in `fuzz/fuzz_targets/`.
-pub const TARGETS: [&str; 4] = ["velodyne_stream", "capture", "config", "world"];
+pub const TARGETS: [&str; 5] = [
+    "velodyne_stream",
+    "capture",
+    "config",
+    "world",
+    "kobuki_frames",
+];
 
 /// Runs the body of target `name` on `data`.
 pub fn run(name: &str, data: &[u8]) {
@@ -36,6 +42,7 @@ pub fn run(name: &str, data: &[u8]) {
         "capture" => capture(data),
         "config" => config(data),
         "world" => world(data),
+        "kobuki_frames" => kobuki_frames(data),
         _ => panic!("no fuzz target {name}"),
     }
 }
@@ -228,6 +235,144 @@ pub fn world(data: &[u8]) {
     let _ = sim.summary(false, 0);
 }
 
+/// Most chunk sizes a [`kobuki_frames`] input sets.
+pub const KOBUKI_MAX_CUTS: usize = 15;
+
+/// The Kobuki frame finder over a byte stream cut into chunks, and everything downstream of
+/// it: feedback and command decoding, odometry and the simulated base's command intake.
+///
+/// Input: `k` (low 4 bits of the first byte), then `k` chunk sizes (a byte each, 0 read as
+/// 256), then the stream, fed in chunks of those sizes in turn (one chunk when `k` is 0).
+/// Asserts: every frame yielded is in the stream at its offset with both header bytes, a
+/// zero XOR from its length to its checksum and sub-payloads that fill its payload; the
+/// result and the counts are the same as for the whole stream in one chunk; at most one
+/// frame's bytes are held; every byte fed is counted once; odometry stays finite.
+pub fn kobuki_frames(data: &[u8]) {
+    use mimnav_kobuki::command::Command;
+    use mimnav_kobuki::feedback::Feedback;
+    use mimnav_kobuki::frame::{Frame, FrameParser, HEADER0, HEADER1, MAX_FRAME, xor};
+    use mimnav_kobuki::odometry::Odometry;
+    use mimnav_kobuki::simbase::{SimBase, SimBaseConfig};
+
+    let Some((&head, rest)) = data.split_first() else {
+        return;
+    };
+    let k = usize::from(head & 0x0F).min(rest.len());
+    let (cuts, stream) = rest.split_at(k);
+    let cuts: Vec<usize> = if cuts.is_empty() {
+        vec![stream.len().max(1)]
+    } else {
+        cuts.iter()
+            .map(|&c| if c == 0 { 256 } else { usize::from(c) })
+            .collect()
+    };
+    let accounted = |p: &FrameParser| {
+        let s = p.stats();
+        assert_eq!(
+            s.bytes,
+            s.garbage_bytes + s.frame_bytes + s.rejected_headers() + p.pending() as u64,
+            "the counts do not add up: {s:?}, {} pending",
+            p.pending()
+        );
+    };
+    let mut parser = FrameParser::new();
+    let mut out = Vec::new();
+    let mut left = stream;
+    let mut i = 0;
+    while !left.is_empty() {
+        let (chunk, tail) = left.split_at(cuts[i % cuts.len()].min(left.len()));
+        i += 1;
+        left = tail;
+        out.extend(parser.push(chunk));
+        assert!(parser.pending() <= MAX_FRAME);
+        accounted(&parser);
+    }
+    assert_eq!(parser.stats().bytes, stream.len() as u64);
+    let mut whole = FrameParser::new();
+    let whole_out: Vec<_> = whole.push(stream).collect();
+    assert_eq!(out, whole_out, "the result depends on the chunking");
+    assert_eq!(parser.stats(), whole.stats());
+    let frames: Vec<&Frame> = out.iter().flatten().collect();
+    assert_eq!(frames.len() as u64, parser.stats().frames);
+    let mut odometry = Odometry::new();
+    for f in frames {
+        let at = usize::try_from(f.stream_offset()).expect("an offset inside the input");
+        let wire = &stream[at..at + f.wire_len()];
+        assert_eq!(&wire[..2], &[HEADER0, HEADER1]);
+        assert_eq!(xor(&wire[2..]), 0, "a frame yielded with a bad checksum");
+        assert_eq!(&wire[3..wire.len() - 1], f.payload());
+        assert!(Frame::from_payload(f.payload()).is_ok());
+        let fb = Feedback::decode(f);
+        let subs = f.subpayloads().count();
+        assert!(fb.skipped as usize + fb.unknown as usize + fb.errors.len() <= subs);
+        if let Some(b) = &fb.basic {
+            let e = odometry.update(b, fb.inertial.as_ref());
+            assert!(
+                [e.x, e.y, e.yaw, e.v, e.w].iter().all(|v| v.is_finite()),
+                "{e:?}"
+            );
+        }
+        assert_eq!(Command::decode_all(f).count(), subs);
+    }
+    let mut base = SimBase::new(SimBaseConfig::default());
+    base.receive(stream);
+    base.step(0.02);
+    let (x, y, yaw) = base.pose();
+    assert!(x.is_finite() && y.is_finite() && yaw.is_finite());
+}
+
+/// Seeds of [`kobuki_frames`]: the simulated base's feedback and a driver's commands, whole,
+/// with garbage, damaged and cut.
+fn kobuki_seeds() -> Vec<(String, Vec<u8>)> {
+    use mimnav_kobuki::command::{BaseControl, Command, SoundSequence};
+    use mimnav_kobuki::simbase::{SimBase, SimBaseConfig};
+
+    let mut base = SimBase::new(SimBaseConfig::default());
+    let mut feedback = Vec::new();
+    let mut bytes = Vec::new();
+    Command::encode_all(
+        &[
+            Command::BaseControl(BaseControl::from_twist(0.3, 0.5)),
+            Command::RequestExtra(0x0B),
+        ],
+        &mut bytes,
+    )
+    .expect("two commands fit a frame");
+    base.receive(&bytes);
+    for _ in 0..4 {
+        base.step(0.02);
+        base.feedback_frame(&mut feedback);
+    }
+    let mut commands = Vec::new();
+    for (v, w) in [(0.2, 0.0), (0.0, 1.0), (-0.1, 0.3)] {
+        Command::BaseControl(BaseControl::from_twist(v, w))
+            .encode(&mut commands)
+            .expect("a command fits a frame");
+    }
+    Command::SoundSequence(SoundSequence::Error)
+        .encode(&mut commands)
+        .expect("a command fits a frame");
+    let mut noisy = vec![0x00, 0xAA, 0xAA, 0x55, 0x02];
+    noisy.extend(&feedback);
+    let n = noisy.len();
+    noisy[n / 2] ^= 0x40;
+    let cut = feedback[..feedback.len() - 30].to_vec();
+    [
+        ("feedback-whole", vec![0], feedback.clone()),
+        ("feedback-cut-7-1-64", vec![3, 7, 1, 64], feedback),
+        ("commands-cut-5", vec![1, 5], commands),
+        ("noisy-cut-13-2", vec![2, 13, 2], noisy),
+        ("cut-short-cut-255", vec![1, 255], cut),
+    ]
+    .into_iter()
+    .map(|(name, head, stream)| {
+        let mut v = head;
+        v.extend(stream);
+        (name.to_string(), v)
+    })
+    .collect()
+}
+
 /// `../shared/data/velodyne` beside the repository, where the real captures are.
 pub fn captures_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/velodyne")
@@ -264,6 +409,7 @@ pub fn seeds(name: &str) -> Vec<(String, Vec<u8>)> {
         "capture" => capture_seeds(),
         "config" => config_seeds(),
         "world" => world_seeds(),
+        "kobuki_frames" => kobuki_seeds(),
         _ => panic!("no fuzz target {name}"),
     }
 }

@@ -2,7 +2,7 @@
 //! over its seed corpus (made at run time from `../shared/data/velodyne` and `config/`; a SKIP
 //! line when the captures are missing) and then over mutations of the seeds from a fixed seed,
 //! until a target's count of inputs or `BUDGET` of time, whichever comes first (about 25 s in
-//! all in a debug build, the four in parallel under nextest). A panic here is a crash:
+//! all in a debug build, the five in parallel under nextest). A panic here is a crash:
 //! reproduce it with `cargo +nightly fuzz run TARGET FILE` after writing the input out (the
 //! failing input is printed in hex).
 use std::time::{Duration, Instant};
@@ -68,4 +68,9 @@ fn smoke_config() {
 #[test]
 fn smoke_world() {
     smoke("world", 50_000, false);
+}
+
+#[test]
+fn smoke_kobuki_frames() {
+    smoke("kobuki_frames", 400_000, false);
 }
