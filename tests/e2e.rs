@@ -14,6 +14,8 @@ mod cli;
 mod foliage;
 /// Issue 23's defects under bad input and faults, a regression test named after each.
 mod hardening;
+/// The Kobuki base's service against a simulated base on a pseudo-terminal (issue 24).
+mod kobuki;
 /// Signals and leftovers (issue 23, items 9 and 10): the demo's children, shared memory after a
 /// SIGKILL, file modes.
 mod lifecycle;

@@ -14,8 +14,9 @@ use iceoryx2::service::static_config::messaging_pattern::MessagingPattern as Pat
 use mimnav_config::Config;
 use mimnav_shared::ipc::{self, PrivateDomain, Svc};
 use mimnav_shared::topics::{
-    BaseState, EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry,
-    PlanCell, Point, PointsHeader, RawPacket, ScanHeader, ScanReturn, TruthHeader, VelocityCommand,
+    BaseState, EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader,
+    Odometry, PlanCell, Point, PointsHeader, RawPacket, ScanHeader, ScanReturn, TruthHeader,
+    VelocityCommand,
 };
 
 use crate::util::{root, shipped_config};

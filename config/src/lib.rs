@@ -27,6 +27,7 @@
 //! | `[mapper]` | [`mimnav_mapper::config::MapperConfig`] |
 //! | `[planner]` | [`mimnav_planner::config::PlannerConfig`] |
 //! | `[foliage]` | [`mimnav_foliage::FoliageParams`] |
+//! | `[kobuki]` | [`mimnav_kobuki::config::KobukiConfig`] |
 //! | `[robot]`, `[map]`, `[log]`, `[latency]`, `[iceoryx2]` | [`Common`] |
 //!
 //! [`Config`] checks the file whole: unknown keys, wrong types and out-of-range values are errors
@@ -54,6 +55,7 @@ use mimnav_shared::config::{
 
 use mimnav_foliage::FoliageParams;
 use mimnav_foliage::step::{ScanStep, StepError};
+use mimnav_kobuki::config::KobukiConfig;
 use mimnav_mapper::MapperParams;
 use mimnav_mapper::config::MapperConfig;
 use mimnav_mapper::step::MapStep;
@@ -80,6 +82,8 @@ pub struct Config {
     pub planner: PlannerConfig,
     /// `[foliage]`: the foliage classifier.
     pub foliage: FoliageParams,
+    /// `[kobuki]`: the Turtlebot 2's base.
+    pub kobuki: KobukiConfig,
 }
 
 impl Deref for Config {
@@ -114,6 +118,7 @@ struct FileConfig {
     mapper: MapperConfig,
     planner: PlannerConfig,
     foliage: FoliageParams,
+    kobuki: KobukiConfig,
     latency: LatencyConfig,
 }
 
@@ -186,6 +191,7 @@ impl Config {
             mapper: file.mapper,
             planner: file.planner,
             foliage: file.foliage,
+            kobuki: file.kobuki,
         };
         config
             .validate()
@@ -203,6 +209,7 @@ impl Config {
         r.merge(self.mapper.validate());
         r.merge(self.planner.validate());
         r.merge(self.foliage.validate());
+        r.merge(self.kobuki.validate());
         // a map comes once per revolution: a shorter limit would call every map stale
         let revolution_s = 60.0 / self.velodyne.rpm;
         r.require(

@@ -73,6 +73,8 @@
 #![deny(missing_docs)]
 
 pub mod command;
+pub mod config;
+pub mod driver;
 pub mod feedback;
 pub mod frame;
 pub mod odometry;

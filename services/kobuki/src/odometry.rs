@@ -96,6 +96,14 @@ impl Odometry {
         self.est = OdomEstimate::default();
     }
 
+    /// Forgets the last frame but keeps the pose: the next frame's encoders and gyro are taken
+    /// as where the base is now (after the link was lost the base may have been switched off
+    /// and on, its encoders and gyro starting again from zero). The motion while the link was
+    /// down is not known.
+    pub fn resync(&mut self) {
+        self.last = None;
+    }
+
     /// Takes one feedback frame's encoders and (if it had one) gyro reading.
     pub fn update(
         &mut self,
@@ -104,15 +112,20 @@ impl Odometry {
     ) -> OdomEstimate {
         let angle = inertial.map(InertialSensorData::angle_rad);
         let Some(last) = self.last else {
+            // the first frame, or the first after a resync: the pose stays where it is (the
+            // origin at first), the gyro's zero is where it reads that heading
             self.last = Some(Last {
                 left: basic.left_encoder,
                 right: basic.right_encoder,
                 stamp_ms: basic.timestamp_ms,
-                gyro: angle.map(|a| (a, a)),
+                gyro: angle.map(|a| (a, a - self.est.yaw)),
             });
             self.est = OdomEstimate {
                 stamp_ms: basic.timestamp_ms,
-                ..OdomEstimate::default()
+                v: 0.0,
+                w: 0.0,
+                dt_s: 0.0,
+                ..self.est
             };
             return self.est;
         };

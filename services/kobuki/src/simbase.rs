@@ -24,7 +24,7 @@
 
 use std::io;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -371,6 +371,8 @@ pub struct Controls {
     cliff: AtomicU8,
     wheel_drop: AtomicU8,
     frames_sent: AtomicU64,
+    /// The last Base Control received: speed (high 16 bits) and radius (low 16 bits).
+    commanded: AtomicU32,
 }
 
 impl Controls {
@@ -402,6 +404,15 @@ impl Controls {
     /// Feedback frames written so far.
     pub fn frames_sent(&self) -> u64 {
         self.frames_sent.load(Ordering::SeqCst)
+    }
+
+    /// The last Base Control the base received.
+    pub fn commanded(&self) -> BaseControl {
+        let bits = self.commanded.load(Ordering::SeqCst);
+        BaseControl {
+            speed_mm_s: (bits >> 16) as u16 as i16,
+            radius_mm: bits as u16 as i16,
+        }
     }
 }
 
@@ -496,7 +507,12 @@ pub fn serve<P: serialport::SerialPort>(
             // end of file, or (serialport's poll) a hang-up: no one has the other side open
             Ok(0) => return Ok(ServeEnd::PeerClosed),
             Err(e) if e.kind() == io::ErrorKind::BrokenPipe => return Ok(ServeEnd::PeerClosed),
-            Ok(n) => base.receive(&buf[..n]),
+            Ok(n) => {
+                base.receive(&buf[..n]);
+                let c = base.command();
+                let bits = u32::from(c.speed_mm_s as u16) << 16 | u32::from(c.radius_mm as u16);
+                controls.commanded.store(bits, Ordering::SeqCst);
+            }
             Err(e)
                 if matches!(
                     e.kind(),

@@ -38,14 +38,11 @@ impl Clearance {
             return;
         }
         for r in lo..lo + side {
-            self.data
-                .extend(classes[r * n + lo..r * n + lo + side].iter().map(|&c| {
-                    if cell_class::blocks(c) {
-                        0.0
-                    } else {
-                        cap_m
-                    }
-                }));
+            self.data.extend(
+                classes[r * n + lo..r * n + lo + side]
+                    .iter()
+                    .map(|&c| if cell_class::blocks(c) { 0.0 } else { cap_m }),
+            );
         }
         chamfer(&mut self.data, side, grid.cell_m);
     }
@@ -66,13 +63,11 @@ impl Clearance {
 /// `cap_m` (row-major, as the map).
 pub fn clearance(classes: &[u8], grid: GridSpec, cap_m: f32, out: &mut Vec<f32>) {
     out.clear();
-    out.extend(classes.iter().map(|&c| {
-        if cell_class::blocks(c) {
-            0.0
-        } else {
-            cap_m
-        }
-    }));
+    out.extend(
+        classes
+            .iter()
+            .map(|&c| if cell_class::blocks(c) { 0.0 } else { cap_m }),
+    );
     if out.len() == grid.len() {
         chamfer(out, grid.cells, grid.cell_m);
     }

@@ -529,13 +529,22 @@ mod tests {
             })
         };
         let closed = wall(0.0);
-        assert!(route(&closed, 0.0).value(0.0, 0.0).is_infinite(), "suspected closes");
+        assert!(
+            route(&closed, 0.0).value(0.0, 0.0).is_infinite(),
+            "suspected closes"
+        );
         let r = route(&closed, 10.0);
         let v = r.value(0.0, 0.0);
         // the straight way is 3 m; by the suspected stretch about 3.9 m plus its penalty
-        assert!(v.is_finite() && v > 5.0, "through the suspected stretch, at a cost: {v}");
+        assert!(
+            v.is_finite() && v > 5.0,
+            "through the suspected stretch, at a cost: {v}"
+        );
         // from beside the suspected stretch the way is shorter than from in front of the glass
-        assert!(r.value(0.0, 1.5) < r.value(0.0, 0.0), "it leads to the suspected stretch");
+        assert!(
+            r.value(0.0, 1.5) < r.value(0.0, 0.0),
+            "it leads to the suspected stretch"
+        );
         // a gap 1 m wide past the suspected stretch: the way round is taken (it pays a little
         // where it passes the stretch's end, not the crossing's penalty)
         let open = wall(1.0);
