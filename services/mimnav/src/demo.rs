@@ -23,11 +23,21 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use mimnav_mapper::render::{self, Marks, render_map};
 use mimnav_shared::grid::GridSpec;
+use mimnav_shared::config::toml_quote;
 use mimnav_shared::ipc;
 use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
 
 use crate::stack::{self, Resolved, Stack};
+
+/// Removes a folder of the demo's own when dropped.
+struct RemoveDir(PathBuf);
+
+impl Drop for RemoveDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
 
 /// Arguments of `mimnav demo`.
 #[derive(Debug, clap::Args)]
@@ -61,6 +71,21 @@ pub struct DemoArgs {
     /// (root, CAP_SYS_NICE or RLIMIT_RTPRIO), each service warns and runs normally.
     #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(i32).range(0..=99))]
     realtime_priority: i32,
+    /// The robot's base: `ideal` (the simulator follows cmd_vel and publishes odom) or
+    /// `kobuki` (the Turtlebot 2's: a simulated Kobuki on a pseudo-terminal speaking the base's
+    /// serial protocol, driven by mimnav-kobuki, whose odometry from the encoders and gyro the
+    /// stack uses; the demo prints its error against the simulator's true position).
+    #[arg(long, value_enum, default_value = "ideal")]
+    base: Base,
+}
+
+/// `mimnav demo --base`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Base {
+    /// The simulator follows cmd_vel and publishes odom.
+    Ideal,
+    /// A simulated Kobuki on a pty, driven by mimnav-kobuki.
+    Kobuki,
 }
 
 /// Percentile `q` (0–1) of sorted values.
@@ -74,12 +99,45 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 /// Runs the demo.
 pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Result<ExitCode> {
     let (robot, world) = (args.robot.as_deref(), args.world.as_deref());
+    // the simulated Kobuki's pty, reached through a symlink of the demo's own
+    let kobuki_dir = (args.base == Base::Kobuki).then(|| {
+        std::env::temp_dir().join(format!("mimnav-demo-kobuki-{}", std::process::id()))
+    });
+    let mut extra = Vec::new();
+    if let Some(dir) = &kobuki_dir {
+        std::fs::create_dir_all(dir)?;
+        let link = toml_quote(&dir.join("kobuki").display().to_string());
+        extra.extend([
+            format!("sim.base={}", toml_quote("kobuki")),
+            format!("sim.kobuki_link={link}"),
+            format!("kobuki.device={link}"),
+            "kobuki.reconnect_s=0.1".to_string(),
+        ]);
+    }
+    let _remove = kobuki_dir.as_ref().map(|d| RemoveDir(d.clone()));
     let Resolved {
         config,
         sets,
         world_path,
         world,
-    } = stack::resolve(config_path, sets, robot, &[], world)?;
+    } = stack::resolve(config_path, sets, robot, &extra, world)?;
+    if args.base == Base::Kobuki && config.robot.name != "turtlebot2" {
+        anyhow::bail!(
+            "--base kobuki: the Kobuki is the Turtlebot 2's base, and the robot is {} (add --robot turtlebot2)",
+            config.robot.name
+        );
+    }
+    // the Kobuki's odometry starts where the robot stands; the simulator's is the world's frame
+    let start = pose2(
+        world.start[0],
+        world.start[1],
+        world.start[2].to_radians(),
+    );
+    let odom_of = |x: f64, y: f64| match args.base {
+        Base::Kobuki => start.to_local(x, y),
+        Base::Ideal => (x, y),
+    };
+    let goal_odom = odom_of(world.goal[0], world.goal[1]);
     let stack = Stack::new(
         "demo",
         &config,
@@ -115,8 +173,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let goal = Goal {
         seq: 0,
         stamp_mono_ns: ipc::monotonic_ns(),
-        x: world.goal[0],
-        y: world.goal[1],
+        x: goal_odom.0,
+        y: goal_odom.1,
         tolerance_m: config.sim.goal_tolerance_m,
     };
     goal_pub.publish(goal)?;
@@ -143,6 +201,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     let mut alarmed = 0u64;
     let mut last_map: Option<(MapHeader, Vec<u8>)> = None;
     let mut path: Vec<(f64, f64)> = Vec::new();
+    let mut last_odom: Option<(f64, f64)> = None;
     let mut goal_seen = false;
     let mut interrupted = false;
     loop {
@@ -192,6 +251,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
             }
         }
         if let Some(o) = odom.latest()? {
+            last_odom = Some((o.x, o.y));
             if path
                 .last()
                 .is_none_or(|p| (p.0 - o.x).hypot(p.1 - o.y) > 0.02)
@@ -202,7 +262,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
                 "at ({:.2}, {:.2}), {:.2} m to the goal, v {:.2} m/s ω {:.2} rad/s; {maps} maps, {cmds} commands",
                 o.x,
                 o.y,
-                (world.goal[0] - o.x).hypot(world.goal[1] - o.y),
+                (goal_odom.0 - o.x).hypot(goal_odom.1 - o.y),
                 o.v,
                 o.omega
             ));
@@ -237,7 +297,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
             &[],
             &Marks {
                 robot_radius_m: config.robot.radius_m,
-                goal: Some(to_robot(world.goal[0], world.goal[1])),
+                goal: Some(to_robot(goal_odom.0, goal_odom.1)),
             },
         );
         for w in path.windows(2) {
@@ -273,6 +333,22 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         percentile(&mapper_ms, 0.99),
         mapper_ms.last().copied().unwrap_or(f64::NAN)
     );
+    if args.base == Base::Kobuki {
+        // the odometry mimnav-kobuki published from the base's encoders and gyro, in the world
+        match (last_odom, &ended) {
+            (Some((x, y)), Some(e)) => {
+                let (wx, wy) = start.to_fixed(x, y);
+                let _ = outln!(
+                    "odometry from the Kobuki's encoders and gyro (mimnav-kobuki) at the end: ({wx:.3}, {wy:.3}); the simulator's true position ({:.3}, {:.3}): error {:.3} m after {:.2} m driven",
+                    e.x,
+                    e.y,
+                    (wx - e.x).hypot(wy - e.y),
+                    e.path_length_m
+                );
+            }
+            _ => _ = outln!("no odometry from the Kobuki to compare"),
+        }
+    }
     if last_map.is_some() {
         let _ = outln!(
             "wrote {} (the last map, robot at the centre heading up, driven path in cyan)",

@@ -19,6 +19,7 @@ use mimnav_config::Config;
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::ipc::{self, PrivateDomain};
 use mimnav_shared::topics::{Odometry, VelocityCommand, command_status};
+use mimnav_sim::config::SimBase;
 use mimnav_sim::world::WorldFile;
 
 use crate::procs::{Options, Service, service_binary};
@@ -137,15 +138,18 @@ impl Stack {
         })
     }
 
-    /// Starts the driver, mapper, foliage classifier and planner. Call from the main thread.
+    /// Starts the driver, mapper, foliage classifier and planner, and with `sim.base = "kobuki"`
+    /// the Kobuki's service. Call from the main thread.
     pub fn start_services(&self) -> Result<Children> {
         let mut children = Children::default();
-        for name in [
+        let kobuki = (self.local.sim.base == SimBase::Kobuki).then_some("mimnav-kobuki");
+        let names = [
             "mimnav-velodyne",
             "mimnav-mapper",
             "mimnav-foliage",
             "mimnav-planner",
-        ] {
+        ];
+        for name in names.into_iter().chain(kobuki) {
             let s = Service::start_with(&service_binary(name)?, &self.child_args, OWN_GROUP)?;
             if name == "mimnav-planner" {
                 children.planner = Some(s);

@@ -31,6 +31,18 @@ impl SimReturnMode {
     }
 }
 
+/// How the simulated robot's base meets the stack.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SimBase {
+    /// The simulator itself follows `cmd_vel` and publishes `odom` (its true pose).
+    Ideal,
+    /// A simulated Kobuki on a pseudo-terminal at `sim.kobuki_link`, speaking the base's serial
+    /// protocol: `mimnav-kobuki` drives it and publishes `odom` from its encoders and gyro, as
+    /// on a Turtlebot 2. Real-time streaming only (not lock-step).
+    Kobuki,
+}
+
 /// The simulator (`[sim]`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -68,6 +80,12 @@ pub struct SimConfig {
     /// VLP-16's spot is wider than its firing spacing), instead of blades drawn for each beam
     /// on its own (the default, which every published figure uses).
     pub grass_blades: bool,
+    /// How the robot's base meets the stack: `ideal` (the simulator follows `cmd_vel` and
+    /// publishes `odom`) or `kobuki` (a simulated Kobuki on a pseudo-terminal; see [`SimBase`]).
+    pub base: SimBase,
+    /// With `base = "kobuki"`: the symlink to the pseudo-terminal the simulator makes (point
+    /// `kobuki.device` at it).
+    pub kobuki_link: PathBuf,
 }
 
 impl Default for SimConfig {
@@ -86,6 +104,8 @@ impl Default for SimConfig {
             lockstep_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
             grass_blades: false,
+            base: SimBase::Ideal,
+            kobuki_link: PathBuf::from("/tmp/mimnav/kobuki"),
         }
     }
 }
@@ -105,6 +125,16 @@ impl SimConfig {
         );
         r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
         r.check("sim.time_scale", self.time_scale, 0.1, 100.0);
+        r.require(
+            !(self.base == SimBase::Kobuki && self.lockstep),
+            "sim.base",
+            "sim.base = \"kobuki\" runs in real time: it cannot be lock-stepped (sim.lockstep = true)",
+        );
+        r.require(
+            self.base != SimBase::Kobuki || !self.kobuki_link.as_os_str().is_empty(),
+            "sim.kobuki_link",
+            "sim.kobuki_link is empty: name the symlink to make to the simulated Kobuki",
+        );
         r.finish()
     }
 

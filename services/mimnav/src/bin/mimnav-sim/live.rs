@@ -13,7 +13,10 @@ use mimnav_shared::ipc::{self, Listening, ValueSubscriber};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::service::{Health, Service};
 use mimnav_shared::topics::{TruthHeader, VelocityCommand};
+use mimnav_sim::config::SimBase;
 use mimnav_sim::{Outcome, Sim};
+
+use crate::kobuki::PtyBase;
 
 /// Runs the episode (or `seconds` of it) against the stack; prints the summary (as JSON with
 /// `json`).
@@ -39,6 +42,12 @@ pub fn run(
     let odom = ipc::odom_publisher(svc.node())?;
     let truth = ipc::truth_publisher(svc.node(), config.map.grid().len())?;
     let lockstep = config.sim.lockstep;
+    // sim.base = "kobuki": a simulated Kobuki on a pty moves the robot; mimnav-kobuki publishes
+    // odom and follows cmd_vel
+    let mut kobuki = match config.sim.base {
+        SimBase::Kobuki => Some(PtyBase::open(&config.sim.kobuki_link, &config.robot)?),
+        SimBase::Ideal => None,
+    };
     // the sensor's clock is the host's, as with a GPS-synchronised sensor, so the driver resolves
     // the hour of its timestamps the same way
     let epoch_ns = ipc::realtime_ns() / 1000 * 1000;
@@ -69,14 +78,17 @@ pub fn run(
         }
         // the pose that goes with a revolution is published before its last packet, so that the
         // mapper and the planner planning on it see it (lock-step runs are then reproducible)
-        if step.completes_revolution || !lockstep && step.send_ns >= next_odom_ns {
+        if let Some(k) = kobuki.as_mut() {
+            let (v, omega) = k.step(step.send_ns, &mut h);
+            sim.set_command(v, omega);
+        } else if step.completes_revolution || !lockstep && step.send_ns >= next_odom_ns {
             if let Err(e) = odom.publish(sim.odometry(odom_seq, ipc::monotonic_ns())) {
                 h.faults.record("publish_failed", Instant::now(), e);
             }
             (odom_seq, next_odom_ns) = (odom_seq + 1, step.send_ns + 20_000_000);
         }
         send(&mut h, &step.data, data_to);
-        if !lockstep {
+        if !lockstep && kobuki.is_none() {
             match cmd.latest() {
                 Ok(Some(c)) => {
                     sim.set_command(f64::from(c.v), f64::from(c.omega));
