@@ -22,6 +22,8 @@ use mimnav_shared::topics::{Goal, Odometry, VelocityCommand, command_status};
 use crate::util::{bin_dir, root};
 
 const SERVICES: [&str; 4] = ["velodyne", "mapper", "foliage", "planner"];
+/// Every unit `mimnav install` installs: the stack's services and the bases' (enabled per robot).
+const UNITS: [&str; 5] = ["velodyne", "mapper", "foliage", "planner", "kobuki"];
 
 /// A temporary folder removed when dropped.
 struct TempDir(PathBuf);

@@ -5,7 +5,7 @@ fn install_places_every_file_and_keeps_an_edited_config() {
     let t = TempDir::new("install");
     let o = install(&t.0);
     assert!(o.status.success(), "{}", text(&o));
-    for s in SERVICES {
+    for s in UNITS {
         let unit =
             t.0.join(format!("usr/lib/systemd/system/mimnav-{s}.service"));
         let repo = root().join(format!("systemd/system/mimnav-{s}.service"));
@@ -95,7 +95,7 @@ fn systemd_analyze_verify_passes_every_unit_without_a_warning() {
     let Some(t) = verify_root("verify") else {
         return;
     };
-    for unit in SERVICES
+    for unit in UNITS
         .iter()
         .map(|s| format!("mimnav-{s}.service"))
         .chain(["mimnav.target".to_string()])
@@ -128,7 +128,7 @@ fn every_unit_is_exposed_at_most_3_of_10() {
         println!("SKIP security exposure: no systemd-analyze on this machine");
         return;
     }
-    for s in SERVICES {
+    for s in UNITS {
         let unit = root().join(format!("systemd/system/mimnav-{s}.service"));
         let o = Command::new("systemd-analyze")
             .args(["security", "--offline=yes", "--no-pager"])

@@ -22,8 +22,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use mimnav_mapper::render::{self, Marks, render_map};
-use mimnav_shared::grid::GridSpec;
 use mimnav_shared::config::toml_quote;
+use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc;
 use mimnav_shared::pose::{Pose2Ext, pose2};
 use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
@@ -100,9 +100,8 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Result<ExitCode> {
     let (robot, world) = (args.robot.as_deref(), args.world.as_deref());
     // the simulated Kobuki's pty, reached through a symlink of the demo's own
-    let kobuki_dir = (args.base == Base::Kobuki).then(|| {
-        std::env::temp_dir().join(format!("mimnav-demo-kobuki-{}", std::process::id()))
-    });
+    let kobuki_dir = (args.base == Base::Kobuki)
+        .then(|| std::env::temp_dir().join(format!("mimnav-demo-kobuki-{}", std::process::id())));
     let mut extra = Vec::new();
     if let Some(dir) = &kobuki_dir {
         std::fs::create_dir_all(dir)?;
@@ -128,11 +127,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         );
     }
     // the Kobuki's odometry starts where the robot stands; the simulator's is the world's frame
-    let start = pose2(
-        world.start[0],
-        world.start[1],
-        world.start[2].to_radians(),
-    );
+    let start = pose2(world.start[0], world.start[1], world.start[2].to_radians());
     let odom_of = |x: f64, y: f64| match args.base {
         Base::Kobuki => start.to_local(x, y),
         Base::Ideal => (x, y),

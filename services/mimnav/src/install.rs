@@ -15,11 +15,12 @@ use std::process::{Command, ExitCode};
 use anyhow::{Context, Result, bail};
 
 /// The services' binaries, which the units start from `/usr/bin`, and the front end.
-pub const BINARIES: [&str; 5] = [
+pub const BINARIES: [&str; 6] = [
     "mimnav-velodyne",
     "mimnav-mapper",
     "mimnav-foliage",
     "mimnav-planner",
+    "mimnav-kobuki",
     "mimnav",
 ];
 
@@ -28,7 +29,7 @@ pub const BINARIES: [&str; 5] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 7] = [
+pub const SYSTEMD_FILES: [(&str, &str); 8] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -44,6 +45,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 7] = [
     (
         "usr/lib/systemd/system/mimnav-planner.service",
         include_str!("../../../systemd/system/mimnav-planner.service"),
+    ),
+    (
+        "usr/lib/systemd/system/mimnav-kobuki.service",
+        include_str!("../../../systemd/system/mimnav-kobuki.service"),
     ),
     (
         "usr/lib/systemd/system/mimnav.target",

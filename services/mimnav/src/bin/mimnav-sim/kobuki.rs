@@ -45,7 +45,8 @@ impl PtyBase {
         let max_accel_mps2 = robot
             .max_linear_accel
             .min(robot.max_angular_accel * half_base);
-        let (mut master, slave) = TTYPort::pair().context("cannot create a pseudo-terminal pair")?;
+        let (mut master, slave) =
+            TTYPort::pair().context("cannot create a pseudo-terminal pair")?;
         master
             .set_timeout(std::time::Duration::ZERO)
             .context("pty: cannot set its timeout")?;
@@ -66,7 +67,10 @@ impl PtyBase {
             Err(_) => {}
         }
         std::os::unix::fs::symlink(&device, link).with_context(|| {
-            format!("sim.kobuki_link: cannot link {} to {device}", link.display())
+            format!(
+                "sim.kobuki_link: cannot link {} to {device}",
+                link.display()
+            )
         })?;
         tracing::info!(link = %link.display(), %device, "simulated Kobuki on a pty");
         Ok(PtyBase {
@@ -118,7 +122,8 @@ impl PtyBase {
                 Ok(n) if n == self.out.len() => self.frames += 1,
                 Ok(_) | Err(_) => {
                     let what = "the pty's buffer is full (no one reads the simulated Kobuki)";
-                    h.faults.record("kobuki_feedback_dropped", Instant::now(), what);
+                    h.faults
+                        .record("kobuki_feedback_dropped", Instant::now(), what);
                 }
             }
             let _ = self.master.flush();
