@@ -75,8 +75,11 @@ pub struct Driver {
     state: BaseState,
     odom_seq: u64,
     out: Vec<u8>,
-    identity: (Option<(u8, u8, u8)>, Option<(u8, u8, u8)>, Option<[u32; 3]>),
+    identity: Identity,
 }
+
+/// The answers to the Request Extra gathered so far: hardware and firmware versions, unique id.
+type Identity = (Option<(u8, u8, u8)>, Option<(u8, u8, u8)>, Option<[u32; 3]>);
 
 impl Driver {
     /// A driver that has heard nothing: its link is down and it commands a stop.
