@@ -57,7 +57,7 @@ const BEYOND_M: f64 = 0.25;
 const MIN_REVOLUTIONS: u32 = 2;
 /// A stretch of a pane's line between what was seen open and a solid no longer than this is the
 /// rest of a passage beside a frame, not drawn; a longer one is drawn (suspected), m.
-const PASSAGE_M: f64 = 1.0;
+const PASSAGE_M: f64 = 1.8;
 /// Lines nearer the sensor than this are not tested for openings (the beams cross them at
 /// angles the robot's own motion blurs), m.
 const MIN_TEST_M: f64 = 0.3;
