@@ -28,6 +28,7 @@
 //! | `[planner]` | [`mimnav_planner::config::PlannerConfig`] |
 //! | `[foliage]` | [`mimnav_foliage::FoliageParams`] |
 //! | `[kobuki]` | [`mimnav_kobuki::config::KobukiConfig`] |
+//! | `[spot]` | [`SpotConfig`] |
 //! | `[robot]`, `[map]`, `[log]`, `[latency]`, `[iceoryx2]` | [`Common`] |
 //!
 //! [`Config`] checks the file whole: unknown keys, wrong types and out-of-range values are errors
@@ -42,6 +43,8 @@
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+
+mod spot;
 
 use std::ops::{Deref, DerefMut};
 use std::path::Path;
@@ -65,6 +68,7 @@ use mimnav_planner::pilot::Pilot;
 use mimnav_sim::SimSettings;
 use mimnav_sim::config::SimConfig;
 use mimnav_velodyne::config::VelodyneConfig;
+pub use spot::SpotConfig;
 
 /// The whole stack's configuration: the shared sections ([`Common`], reached through `Deref`:
 /// `config.robot`, `config.map`, …) and every library's own.
@@ -84,6 +88,8 @@ pub struct Config {
     pub foliage: FoliageParams,
     /// `[kobuki]`: the Turtlebot 2's base.
     pub kobuki: KobukiConfig,
+    /// `[spot]`: the Spot bridge.
+    pub spot: SpotConfig,
 }
 
 impl Deref for Config {
@@ -119,6 +125,7 @@ struct FileConfig {
     planner: PlannerConfig,
     foliage: FoliageParams,
     kobuki: KobukiConfig,
+    spot: SpotConfig,
     latency: LatencyConfig,
 }
 
@@ -192,6 +199,7 @@ impl Config {
             planner: file.planner,
             foliage: file.foliage,
             kobuki: file.kobuki,
+            spot: file.spot,
         };
         config
             .validate()
@@ -210,6 +218,7 @@ impl Config {
         r.merge(self.planner.validate());
         r.merge(self.foliage.validate());
         r.merge(self.kobuki.validate());
+        r.merge(self.spot.validate());
         // a map comes once per revolution: a shorter limit would call every map stale
         let revolution_s = 60.0 / self.velodyne.rpm;
         r.require(
