@@ -141,23 +141,7 @@ fn score_map_meets_the_targets_where_the_readme_says_it_does() {
 
 #[test]
 fn the_demo_drives_the_open_field_to_its_goal_as_separate_processes() {
-    let png = crate::util::TempFile(
-        std::env::temp_dir().join(format!("mimnav-demo-{}.png", std::process::id())),
-    );
-    let out = Command::new(bin("mimnav"))
-        .arg("--config")
-        .arg(shipped_config())
-        .arg("demo")
-        .arg("--world")
-        .arg(shipped_config().with_file_name("worlds/open_field.toml"))
-        .arg("--out")
-        .arg(&png.0)
-        .output()
-        .expect("run mimnav demo");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    assert!(stdout.contains("goal_reached"), "{stdout}");
+    let (stdout, png) = crate::util::demo_to_goal("open_field.toml", &[]);
     // the latency line names its figures, measured over the revolutions
     let line = stdout
         .lines()

@@ -236,23 +236,10 @@ fn tempdir(tag: &str) -> std::path::PathBuf {
 /// 11.3 m).
 #[test]
 fn the_demo_drives_scenario_1_through_the_kobuki_protocol() {
-    let png = crate::util::TempFile(
-        std::env::temp_dir().join(format!("mimnav-demo-kobuki-{}.png", std::process::id())),
+    let (stdout, _png) = crate::util::demo_to_goal(
+        "scenario1_glass_wall.toml",
+        &["--base", "kobuki", "--realtime-priority", "0"],
     );
-    let out = std::process::Command::new(bin("mimnav"))
-        .arg("--config")
-        .arg(crate::util::shipped_config())
-        .args(["demo", "--base", "kobuki", "--realtime-priority", "0"])
-        .arg("--world")
-        .arg(crate::util::shipped_config().with_file_name("worlds/scenario1_glass_wall.toml"))
-        .arg("--out")
-        .arg(&png.0)
-        .output()
-        .expect("run mimnav demo");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    assert!(stdout.contains("goal_reached"), "{stdout}");
     let line = stdout
         .lines()
         .find(|l| l.starts_with("odometry from the Kobuki"))

@@ -186,6 +186,32 @@ pub fn shipped_config() -> PathBuf {
     root().join("config/mimnav.toml")
 }
 
+/// `mimnav demo` with the shipped config on the bundled world `world` (a file name under
+/// `config/worlds/`) and `extra` options, writing its map to a temporary PNG: its stdout, after
+/// asserting it reached the goal, and the PNG (removed when dropped).
+pub fn demo_to_goal(world: &str, extra: &[&str]) -> (String, TempFile) {
+    static RUN: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = RUN.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let png =
+        TempFile(std::env::temp_dir().join(format!("mimnav-demo-{}-{n}.png", std::process::id())));
+    let out = Command::new(bin("mimnav"))
+        .arg("--config")
+        .arg(shipped_config())
+        .arg("demo")
+        .args(extra)
+        .arg("--world")
+        .arg(shipped_config().with_file_name(format!("worlds/{world}")))
+        .arg("--out")
+        .arg(&png.0)
+        .output()
+        .expect("run mimnav demo");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("goal_reached"), "{stdout}");
+    (stdout, png)
+}
+
 /// `--config` with the shipped config and the `--set` options of a private domain.
 pub fn config_args(domain: &mimnav_shared::ipc::PrivateDomain) -> Vec<String> {
     let mut a = vec!["--config".into(), shipped_config().display().to_string()];
