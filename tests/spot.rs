@@ -441,6 +441,8 @@ fn spot_bridge_follows_cmd_vel_and_stops_on_every_fault() {
         context(&run, &log, &mut log_lines)
     );
     fake.fault("quit");
+    log_lines.extend(log.try_iter());
+    println!("spot: the bridge's log:\n{}", log_lines.join("\n"));
     let _ = std::fs::remove_dir_all(&dir);
     println!("spot: scenario took {:.1} s", started.elapsed().as_secs_f64());
 }
