@@ -489,6 +489,8 @@ class RobotCommandServicer(robot_command_service_pb2_grpc.RobotCommandServiceSer
                        end_mono_ns=r.robot_to_mono_ns(end), frame=vr.se2_frame_name)
         elif mob.HasField("stand_request"):
             kind, rec = "stand", {}
+        elif cmd.full_body_command.HasField("safe_power_off_request"):
+            kind, rec = "safe_power_off", {}
         else:
             kind, rec = "other", {}
         with r.lock:
@@ -505,8 +507,9 @@ class RobotCommandServicer(robot_command_service_pb2_grpc.RobotCommandServiceSer
                 resp.robot_command_id = r.cmd_id
                 if kind == "velocity":
                     r.vx, r.vrot, r.vel_end_ns = rec["v_x"], rec["v_rot"], rec["end_robot_ns"]
-                elif kind == "stop":
+                elif kind in ("stop", "safe_power_off"):
                     r.vx = r.vrot = 0.0
+                    r.motors_on = kind == "stop"  # it sits, then cuts motor power
         rec["status"] = robot_command_pb2.RobotCommandResponse.Status.Name(resp.status)
         rec["lease"] = lease_pb2.LeaseUseResult.Status.Name(resp.lease_use_result.status)
         r.record(kind, **rec)
