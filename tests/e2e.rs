@@ -26,12 +26,12 @@ mod lockstep;
 mod mapper;
 /// The Python client on iceoryx2's binding: its contract, behind the driver, as a publisher.
 mod python_client;
-/// The Spot bridge (`clients/python/mimnav_spot.py`) against a fake Spot made of `bosdyn-api`'s
-/// servicers (issue 24).
-mod spot;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
 /// stack in lock-step is in `lockstep`).
 mod sim;
+/// The Spot bridge (`clients/python/mimnav_spot.py`) against a fake Spot made of `bosdyn-api`'s
+/// servicers (issue 24).
+mod spot;
 /// The systemd units, `mimnav install`, and the stack under a real systemd user manager.
 mod systemd;
 /// `docs/topics.md` against the types and the services the `ipc` functions create.

@@ -258,7 +258,7 @@ fn spot_bridge_follows_cmd_vel_and_stops_on_every_fault() {
         let until = Instant::now() + Duration::from_secs(secs);
         while Instant::now() < until {
             idle(run, fake, 0.05);
-            if run.states.last().is_some_and(|s| ok(s)) {
+            if run.states.last().is_some_and(ok) {
                 return true;
             }
         }
