@@ -4,7 +4,8 @@
 //! parallel and never meet a running stack. Tests that need the real captures in
 //! `../shared/data` print a SKIP line where the folder is missing, and so do the tests of the Python
 //! client where there is no Python with iceoryx2's binding (`MIMNAV_PYTHON`, which `.ci/run` sets,
-//! makes a missing one an error).
+//! makes a missing one an error), and the Spot bridge's test where there is no Python with
+//! `bosdyn-client` (`MIMNAV_SPOT_PYTHON`, likewise).
 
 /// Issue 23: worlds, goals, configs and captures the stack cannot use, at the command line.
 mod bad_input;
@@ -28,6 +29,9 @@ mod python_client;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
 /// stack in lock-step is in `lockstep`).
 mod sim;
+/// The Spot bridge (`clients/python/mimnav_spot.py`) against a fake Spot made of `bosdyn-api`'s
+/// servicers (issue 24).
+mod spot;
 /// The systemd units, `mimnav install`, and the stack under a real systemd user manager.
 mod systemd;
 /// `docs/topics.md` against the types and the services the `ipc` functions create.
