@@ -71,13 +71,13 @@ class SpotConfig:
     port: int = 443
     ca_cert: str = ""
     credentials_file: str = "/etc/mimnav/spot-credentials"
-    command_validity_cap_s: float = 1.0
+    command_validity_cap_s: float = 0.6
     estop_timeout_s: float = 9.0
     odom_rate_hz: float = 25.0
 
     def check(self) -> None:
-        if not (0 < self.command_validity_cap_s <= 10):
-            raise ValueError("spot.command_validity_cap_s must be in (0, 10]")
+        if not (0.05 <= self.command_validity_cap_s <= 5):
+            raise ValueError("spot.command_validity_cap_s must be in [0.05, 5]")
         if not (1 <= self.estop_timeout_s <= 60):
             raise ValueError("spot.estop_timeout_s must be in [1, 60]")
         if not (1 <= self.odom_rate_hz <= 200):

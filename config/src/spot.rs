@@ -14,6 +14,11 @@ use mimnav_shared::config::{Checks, Invalid};
 pub struct SpotConfig {
     /// The robot's address (its hostname or IP on the payload or WiFi network).
     pub hostname: String,
+    /// The robot's API port (TLS).
+    pub port: u16,
+    /// A PEM file of the CA that signed the robot's certificate; empty: the robot CA the SDK
+    /// ships.
+    pub ca_cert: String,
     /// The file holding the robot user's name and password (readable by the service user
     /// only); under systemd the unit's `LoadCredential=spot:` takes precedence.
     pub credentials_file: PathBuf,
@@ -31,10 +36,12 @@ impl Default for SpotConfig {
     fn default() -> Self {
         SpotConfig {
             hostname: "192.168.80.3".into(),
+            port: 443,
+            ca_cert: String::new(),
             credentials_file: PathBuf::from("/etc/mimnav/spot-credentials"),
             command_validity_cap_s: 0.6,
             estop_timeout_s: 9.0,
-            odom_rate_hz: 50.0,
+            odom_rate_hz: 25.0,
         }
     }
 }
@@ -56,6 +63,11 @@ impl SpotConfig {
         );
         r.check("spot.estop_timeout_s", self.estop_timeout_s, 1.0, 60.0);
         r.check("spot.odom_rate_hz", self.odom_rate_hz, 1.0, 200.0);
+        r.require(
+            self.port != 0,
+            "spot.port",
+            "spot.port is 0: name the robot's API port (443)",
+        );
         r.finish()
     }
 }

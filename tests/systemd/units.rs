@@ -14,9 +14,22 @@ fn install_places_every_file_and_keeps_an_edited_config() {
             std::fs::read_to_string(&repo).expect("repo unit"),
             "{s}: the installed unit is the repository's"
         );
+        if s == "spot" {
+            // a Python module, run from its own environment
+            continue;
+        }
         let b = t.0.join(format!("usr/bin/mimnav-{s}"));
         let mode = std::fs::metadata(&b).expect("binary").permissions().mode();
         assert_eq!(mode & 0o777, 0o755, "{}", b.display());
+    }
+    for f in ["mimnav_client.py", "mimnav_spot.py"] {
+        let installed = t.0.join("usr/lib/mimnav/python").join(f);
+        let repo = root().join("clients/python").join(f);
+        assert_eq!(
+            std::fs::read(&installed).expect("installed"),
+            std::fs::read(&repo).expect("repo"),
+            "{f}: the Spot bridge's Python is the repository's"
+        );
     }
     for f in [
         "usr/bin/mimnav",
@@ -77,6 +90,12 @@ fn verify_root(tag: &str) -> Option<TempDir> {
         let p = t.0.join(format!("usr/lib/systemd/system/{target}.target"));
         std::fs::write(p, "[Unit]\nDescription=stub for verify\n").expect("stub");
     }
+    // the Spot bridge's Python, which `mimnav install --spot` makes on the robot (--root only
+    // prints the commands)
+    let python = t.0.join("usr/lib/mimnav/spot-venv/bin/python");
+    std::fs::create_dir_all(python.parent().expect("folder")).expect("venv folder");
+    std::fs::write(&python, "#!/bin/sh\n").expect("stub python");
+    std::fs::set_permissions(&python, std::fs::Permissions::from_mode(0o755)).expect("mode");
     Some(t)
 }
 

@@ -29,7 +29,7 @@ pub const BINARIES: [&str; 6] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 8] = [
+pub const SYSTEMD_FILES: [(&str, &str); 9] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -51,6 +51,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 8] = [
         include_str!("../../../systemd/system/mimnav-kobuki.service"),
     ),
     (
+        "usr/lib/systemd/system/mimnav-spot.service",
+        include_str!("../../../systemd/system/mimnav-spot.service"),
+    ),
+    (
         "usr/lib/systemd/system/mimnav.target",
         include_str!("../../../systemd/system/mimnav.target"),
     ),
@@ -62,6 +66,29 @@ pub const SYSTEMD_FILES: [(&str, &str); 8] = [
         "usr/lib/tmpfiles.d/mimnav.conf",
         include_str!("../../../systemd/tmpfiles.d/mimnav.conf"),
     ),
+];
+
+/// The Spot bridge and the client it runs on, for `mimnav-spot.service` (its `PYTHONPATH`).
+pub const PYTHON_FILES: [(&str, &str); 2] = [
+    (
+        "usr/lib/mimnav/python/mimnav_client.py",
+        include_str!("../../../clients/python/mimnav_client.py"),
+    ),
+    (
+        "usr/lib/mimnav/python/mimnav_spot.py",
+        include_str!("../../../clients/python/mimnav_spot.py"),
+    ),
+];
+
+/// The Spot bridge's Python environment (the unit's `ExecStart`).
+pub const SPOT_VENV: &str = "/usr/lib/mimnav/spot-venv";
+
+/// What the Spot bridge's environment holds: Boston Dynamics' SDK and iceoryx2's binding, the
+/// versions the tests ran against.
+pub const SPOT_PACKAGES: [&str; 3] = [
+    "bosdyn-client==5.2.0",
+    "bosdyn-api==5.2.0",
+    "iceoryx2==0.10.0",
 ];
 
 const CONFIG: &str = include_str!("../../../config/mimnav.toml");
@@ -85,6 +112,11 @@ pub struct InstallArgs {
     /// Where the built binaries are [default: the folder of this `mimnav`].
     #[arg(long, value_name = "DIR")]
     bin_dir: Option<PathBuf>,
+    /// Also make the Spot bridge's Python environment (/usr/lib/mimnav/spot-venv: Boston
+    /// Dynamics' SDK and iceoryx2's binding from PyPI; needs python3-venv and the network).
+    /// With --root, prints the commands instead.
+    #[arg(long)]
+    spot: bool,
 }
 
 /// The shipped config, deployed: iceoryx2's root path under `/run` (`/tmp` is read-only to the
@@ -134,6 +166,11 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
         write(&to, text.as_bytes(), 0o644)?;
         outln!("installed {}", to.display())?;
     }
+    for (path, text) in PYTHON_FILES {
+        let to = root.join(path);
+        write(&to, text.as_bytes(), 0o644)?;
+        outln!("installed {}", to.display())?;
+    }
     let etc = root.join("etc/mimnav");
     for (name, text) in ROBOTS {
         let to = etc.join("robots").join(name);
@@ -154,13 +191,20 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
         write(&to, config.as_bytes(), 0o644)?;
         outln!("installed {}", to.display())?;
     }
-    let steps: [&[&str]; 3] = [
-        &["systemd-sysusers", "mimnav.conf"],
-        &["systemd-tmpfiles", "--create", "mimnav.conf"],
-        &["systemctl", "daemon-reload"],
+    let pip = format!("{SPOT_VENV}/bin/pip");
+    let mut steps: Vec<Vec<&str>> = vec![
+        vec!["systemd-sysusers", "mimnav.conf"],
+        vec!["systemd-tmpfiles", "--create", "mimnav.conf"],
+        vec!["systemctl", "daemon-reload"],
     ];
+    if args.spot {
+        steps.push(vec!["python3", "-m", "venv", SPOT_VENV]);
+        let mut install = vec![pip.as_str(), "install", "--quiet"];
+        install.extend(SPOT_PACKAGES);
+        steps.push(install);
+    }
     if live {
-        for step in steps {
+        for step in &steps {
             let status = Command::new(step[0])
                 .args(&step[1..])
                 .status()
@@ -172,10 +216,15 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
         }
     } else {
         outln!("then, on the robot:")?;
-        for step in steps {
+        for step in &steps {
             outln!("  {}", step.join(" "))?;
         }
     }
+    outln!(
+        "the robot's base, part of mimnav.target once enabled:  systemctl enable mimnav-kobuki.service \
+         (Turtlebot 2; docs/deployment.md has its udev rule) or mimnav-spot.service (Spot: install \
+         with --spot, credentials in /etc/mimnav/spot-credentials, mode 0600)"
+    )?;
     outln!(
         "start the stack now and at every boot:  systemctl enable --now mimnav.target\n\
          see it:   systemctl status 'mimnav-*'    journalctl -u 'mimnav-*' -f\n\
