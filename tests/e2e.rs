@@ -26,6 +26,8 @@ mod lockstep;
 mod mapper;
 /// The Python client on iceoryx2's binding: its contract, behind the driver, as a publisher.
 mod python_client;
+/// `mimnav record`: the stack's topics into an MCAP file, read back with PyPI's `mcap`.
+mod record;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
 /// stack in lock-step is in `lockstep`).
 mod sim;

@@ -19,6 +19,7 @@ mod goal;
 mod install;
 mod pool;
 mod procs;
+mod record;
 mod replay;
 mod score_map;
 mod sim;
@@ -80,6 +81,9 @@ enum Command {
     FoliageEval(foliage_eval::FoliageEvalArgs),
     /// Write the next map the mapper publishes as a PNG, in the paper's colours.
     Snapshot(snapshot::SnapshotArgs),
+    /// Record the stack's topics into an MCAP file (JSON messages with Foxglove's schemas) until
+    /// --seconds, --max-bytes, SIGINT or SIGTERM.
+    Record(record::RecordArgs),
     /// Send a navigation goal (odometry frame) to the running planner.
     Goal(goal::GoalArgs),
     /// Check the config file and print the settings in force.
@@ -122,6 +126,7 @@ fn main() -> ExitCode {
             foliage_eval::run(&config, config_path.as_deref(), &cli.set, args)
         }
         Command::Snapshot(args) => snapshot::run(&config, args),
+        Command::Record(args) => record::run(&config, args),
         Command::Goal(args) => goal::run(&config, args),
         Command::Install(args) => install::run(args),
         Command::CheckConfig => check_config::run(&config),

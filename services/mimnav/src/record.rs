@@ -1,0 +1,342 @@
+//! `mimnav record --out run.mcap`: the stack's topics into an MCAP file that Foxglove and the
+//! `mcap` tools read.
+//!
+//! Subscribes to every topic (or the `--topic`s named) and writes each sample as a JSON message
+//! ([`convert`]) into lz4-compressed chunks of about 1 MiB. A chunk goes to the file when it
+//! fills and at least once a second, so a recorder killed outright (SIGKILL, power) leaves a file
+//! whose complete chunks a streaming reader still reads; only a clean end (`--seconds`,
+//! `--max-bytes`, SIGINT, SIGTERM) writes the summary (indexes, statistics) that seeking
+//! readers want.
+//!
+//! Times: a message's **log time** is when the recorder received it, on `CLOCK_MONOTONIC`,
+//! converted to ns since the Unix epoch with the offset between the two clocks measured at the
+//! start (so log times increase with arrival, also while replaying an old capture); its
+//! **publish time** is the sample's own sensor stamp (`stamp_ns`) where its type has one
+//! (points, scans, odometry, maps, truth, foliage verdicts), else the log time. The Foxglove
+//! messages' `timestamp` is the sensor stamp.
+
+pub mod convert;
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use mimnav_config::Config;
+use mimnav_shared::hop::Hop;
+use mimnav_shared::ipc::{self, Svc};
+
+use convert::{BadSample, Topic};
+
+/// Arguments of `mimnav record`.
+#[derive(Debug, clap::Args)]
+pub struct RecordArgs {
+    /// The MCAP file to write (replaced if it exists).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Record this topic (repeatable), e.g. `lidar/points` or `mimnav/odom` [default: all of
+    /// lidar/points, lidar/scan2d, cmd_vel, odom, goal, base/state, sim/truth, map/layers,
+    /// map/plan, foliage/alarm].
+    #[arg(long = "topic", value_name = "NAME")]
+    topics: Vec<String>,
+    /// End the recording after this many seconds.
+    #[arg(long, value_name = "S")]
+    seconds: Option<f64>,
+    /// End the recording once the file holds this many bytes (the summary adds a little).
+    #[arg(long, value_name = "N", default_value_t = 4 << 30)]
+    max_bytes: u64,
+}
+
+/// Uncompressed size at which a chunk is closed and written.
+const CHUNK_BYTES: u64 = 1 << 20;
+/// A chunk is written at least this often, so a killed recorder loses at most this much.
+const FLUSH_EVERY: Duration = Duration::from_secs(1);
+/// How long the loop sleeps when every subscriber is empty.
+const IDLE: Duration = Duration::from_millis(5);
+
+/// A file that counts how far it has been written (the `mcap` writer owns it).
+struct Counted {
+    file: BufWriter<File>,
+    pos: u64,
+    end: Arc<AtomicU64>,
+}
+
+impl Write for Counted {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.file.write(buf)?;
+        self.pos += n as u64;
+        self.end.fetch_max(self.pos, Ordering::Relaxed);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Seek for Counted {
+    fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+        self.pos = self.file.seek(to)?;
+        Ok(self.pos)
+    }
+}
+
+/// One subscribed topic.
+enum Sub {
+    Points(ipc::PointsSubscriber),
+    Scan(ipc::ScanSubscriber),
+    Odom(ipc::ValueSubscriber<mimnav_shared::topics::Odometry>),
+    CmdVel(ipc::ValueSubscriber<mimnav_shared::topics::VelocityCommand>),
+    Goal(ipc::ValueSubscriber<mimnav_shared::topics::Goal>),
+    Plan(ipc::PlanSubscriber),
+    Layers(ipc::LayersSubscriber),
+    Foliage(ipc::FoliageSubscriber),
+    BaseState(ipc::ValueSubscriber<mimnav_shared::topics::BaseState>),
+    Truth(ipc::TruthSubscriber),
+}
+
+/// A converted sample: its sequence number, its sensor stamp if its type has one, the message.
+type Converted = (u64, Option<u64>, Result<Vec<u8>, BadSample>);
+
+impl Sub {
+    fn open(node: &iceoryx2::prelude::Node<Svc>, topic: Topic) -> Result<Sub, ipc::IpcError> {
+        Ok(match topic {
+            Topic::Points => Sub::Points(ipc::points_subscriber(node)?),
+            Topic::Scan2d => Sub::Scan(ipc::scan_subscriber(node)?),
+            Topic::Odom => Sub::Odom(ipc::odom_subscriber(node)?),
+            Topic::CmdVel => Sub::CmdVel(ipc::cmd_vel_subscriber(node)?),
+            Topic::Goal => Sub::Goal(ipc::goal_subscriber(node)?),
+            Topic::Plan => Sub::Plan(ipc::plan_subscriber(node)?),
+            Topic::Layers => Sub::Layers(ipc::layers_subscriber(node)?),
+            Topic::Foliage => Sub::Foliage(ipc::foliage_subscriber(node)?),
+            Topic::BaseState => Sub::BaseState(ipc::base_state_subscriber(node)?),
+            Topic::Truth => Sub::Truth(ipc::truth_subscriber(node)?),
+        })
+    }
+
+    /// The next sample, converted, if one is waiting. A slice sample is released before this
+    /// returns (a slice subscriber may hold one at a time).
+    fn next(&self) -> Result<Option<Converted>, ipc::IpcError> {
+        use convert as c;
+        Ok(match self {
+            Sub::Points(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), Ok(c::points(h, s.payload())))
+            }),
+            Sub::Scan(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), Ok(c::scan(h, s.payload())))
+            }),
+            Sub::Plan(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), c::plan(h, s.payload()))
+            }),
+            Sub::Layers(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), c::layers(h, s.payload()))
+            }),
+            Sub::Foliage(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), Ok(c::foliage(h, s.payload())))
+            }),
+            Sub::Truth(s) => s.receive()?.map(|s| {
+                let h = s.user_header();
+                (h.seq, Some(h.stamp_ns), c::truth(h, s.payload()))
+            }),
+            Sub::Odom(s) => s
+                .receive()?
+                .map(|o| (o.seq, Some(o.stamp_ns), Ok(c::odom(&o)))),
+            Sub::CmdVel(s) => s.receive()?.map(|v| (v.seq, None, Ok(c::cmd_vel(&v)))),
+            Sub::Goal(s) => s.receive()?.map(|g| (g.seq, None, Ok(c::goal(&g)))),
+            Sub::BaseState(s) => s.receive()?.map(|b| (b.seq, None, Ok(c::base_state(&b)))),
+        })
+    }
+}
+
+/// What happened on one topic.
+struct Channel {
+    topic: Topic,
+    sub: Sub,
+    id: u16,
+    hop: Hop,
+    written: u64,
+    bad: u64,
+    errors: u64,
+}
+
+/// The topics named on the command line (all when none), each once.
+fn selected(names: &[String]) -> Result<Vec<Topic>> {
+    if names.is_empty() {
+        return Ok(Topic::ALL.to_vec());
+    }
+    let mut topics = Vec::new();
+    for n in names {
+        let Some(t) = Topic::parse(n) else {
+            let known: Vec<&str> = Topic::ALL.iter().map(|t| t.name()).collect();
+            bail!("unknown topic {n:?}: one of {}", known.join(", "));
+        };
+        if !topics.contains(&t) {
+            topics.push(t);
+        }
+    }
+    Ok(topics)
+}
+
+/// Why the recording ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum End {
+    Signal,
+    Seconds,
+    MaxBytes,
+}
+
+/// Records until a limit or a signal ends it, then writes the summary and prints the counts.
+pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
+    let topics = selected(&args.topics)?;
+    if let Some(s) = args.seconds
+        && !(s > 0.0 && s.is_finite())
+    {
+        bail!("--seconds must be positive: {s}");
+    }
+    let node = ipc::node(config, "mimnav-record")?;
+    let mut channels = Vec::new();
+    let file =
+        File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let end = Arc::new(AtomicU64::new(0));
+    let counted = Counted {
+        file: BufWriter::with_capacity(1 << 16, file),
+        pos: 0,
+        end: end.clone(),
+    };
+    let mut writer = mcap::WriteOptions::new()
+        .compression(Some(mcap::Compression::Lz4))
+        .chunk_size(Some(CHUNK_BYTES))
+        .create(counted)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    for topic in topics {
+        let sub = Sub::open(&node, topic)?;
+        let schema = serde_json::to_vec(&topic.schema())?;
+        let schema_id = writer.add_schema(topic.schema_name(), "jsonschema", &schema)?;
+        let id = writer.add_channel(schema_id, topic.name(), "json", &BTreeMap::new())?;
+        channels.push(Channel {
+            topic,
+            sub,
+            id,
+            hop: Hop::new(),
+            written: 0,
+            bad: 0,
+            errors: 0,
+        });
+    }
+    // CLOCK_MONOTONIC → Unix ns
+    let epoch_offset = ipc::realtime_ns() as i128 - ipc::monotonic_ns() as i128;
+    let start = Instant::now();
+    let until = args.seconds.map(|s| start + Duration::from_secs_f64(s));
+    let mut last_flush = Instant::now();
+    tracing::info!(
+        "recording {} topic(s) into {}",
+        channels.len(),
+        args.out.display()
+    );
+    let why = loop {
+        let mut busy = false;
+        for ch in &mut channels {
+            // at most a few samples a topic a turn, so one busy topic cannot starve the others
+            for _ in 0..8 {
+                let got = match ch.sub.next() {
+                    Ok(Some(got)) => got,
+                    Ok(None) => break,
+                    Err(e) => {
+                        ch.errors += 1;
+                        tracing::warn!("{}: {e}", ch.topic.name());
+                        break;
+                    }
+                };
+                busy = true;
+                let (seq, stamp, message) = got;
+                ch.hop.see(seq);
+                let message = match message {
+                    Ok(m) => m,
+                    Err(e) => {
+                        ch.bad += 1;
+                        tracing::warn!("{}: sample {seq} skipped: {e}", ch.topic.name());
+                        continue;
+                    }
+                };
+                let log_time = (ipc::monotonic_ns() as i128 + epoch_offset).max(0) as u64;
+                let header = mcap::records::MessageHeader {
+                    channel_id: ch.id,
+                    sequence: seq as u32,
+                    log_time,
+                    publish_time: stamp.unwrap_or(log_time),
+                };
+                writer
+                    .write_to_known_channel(&header, &message)
+                    .with_context(|| format!("cannot write {}", args.out.display()))?;
+                ch.written += 1;
+            }
+        }
+        if end.load(Ordering::Relaxed) >= args.max_bytes {
+            break End::MaxBytes;
+        }
+        if until.is_some_and(|u| Instant::now() >= u) {
+            break End::Seconds;
+        }
+        if last_flush.elapsed() >= FLUSH_EVERY {
+            writer.flush()?;
+            last_flush = Instant::now();
+        }
+        if !busy && !ipc::sleep(&node, IDLE) {
+            break End::Signal;
+        }
+    };
+    writer
+        .finish()
+        .with_context(|| format!("cannot finish {}", args.out.display()))?;
+    drop(writer);
+    let bytes = std::fs::metadata(&args.out).map_or(0, |m| m.len());
+    outln!(
+        "{}: {} bytes, {:.1} s, ended by {}",
+        args.out.display(),
+        bytes,
+        start.elapsed().as_secs_f64(),
+        match why {
+            End::Signal => "a signal",
+            End::Seconds => "--seconds",
+            End::MaxBytes => "--max-bytes",
+        }
+    )?;
+    for ch in &channels {
+        outln!(
+            "{}: {} written, {} dropped (not kept up with), {} bad, {} receive errors",
+            ch.topic.name(),
+            ch.written,
+            ch.hop.dropped(),
+            ch.bad,
+            ch.errors
+        )?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topics_are_all_by_default_each_once_and_checked() {
+        assert_eq!(selected(&[]).unwrap().len(), 10);
+        let two = selected(&["odom".into(), "mimnav/odom".into(), "map/plan".into()]).unwrap();
+        assert_eq!(two, [Topic::Odom, Topic::Plan]);
+        let err = selected(&["lidar/nope".into()]).unwrap_err().to_string();
+        assert!(
+            err.contains("unknown topic") && err.contains("mimnav/lidar/points"),
+            "{err}"
+        );
+    }
+}

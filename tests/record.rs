@@ -1,0 +1,274 @@
+//! `mimnav record` behind the driver replaying the bundled capture, the file read back with
+//! PyPI's `mcap` package (`tests/mcap_read.py`): after a clean end and after a SIGKILL.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use mimnav_shared::ipc::{self, Listening, PrivateDomain};
+use mimnav_shared::topics::Point;
+use serde_json::Value;
+
+use crate::util::{Proc, TempFile, bin, config_args, lines_of, root, wait_until};
+
+/// The environment variable naming a Python with PyPI's `mcap` (`.ci/run` sets it).
+const MCAP_PYTHON_ENV: &str = "MIMNAV_MCAP_PYTHON";
+
+/// A Python that imports `mcap`: `MIMNAV_MCAP_PYTHON`, else `target/mcap-venv/bin/python`. None
+/// after a SKIP line when there is neither; a `MIMNAV_MCAP_PYTHON` without `mcap` fails.
+fn python_with_mcap(test: &str) -> Option<PathBuf> {
+    let (python, explicit) = match std::env::var_os(MCAP_PYTHON_ENV) {
+        Some(p) => (PathBuf::from(p), true),
+        None => (root().join("target/mcap-venv/bin/python"), false),
+    };
+    let imports = Command::new(&python)
+        .args(["-c", "import mcap, lz4"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    match (imports, explicit) {
+        (true, _) => Some(python),
+        (false, true) => panic!(
+            "{MCAP_PYTHON_ENV}={} cannot import mcap: `pip install mcap==1.6.0` into it",
+            python.display()
+        ),
+        (false, false) => {
+            println!(
+                "SKIP {test}: no Python with mcap at {} (run .ci/run, or set {MCAP_PYTHON_ENV})",
+                python.display()
+            );
+            None
+        }
+    }
+}
+
+/// `tests/mcap_read.py FILE`'s JSON.
+fn read_mcap(python: &Path, file: &Path) -> Value {
+    let out = Command::new(python)
+        .arg(root().join("tests/mcap_read.py"))
+        .arg(file)
+        .output()
+        .expect("run python");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON from mcap_read.py")
+}
+
+fn temp_mcap(tag: &str) -> TempFile {
+    TempFile(std::env::temp_dir().join(format!("mimnav-{tag}-{}.mcap", std::process::id())))
+}
+
+/// `mimnav record` in `domain`, once it has subscribed (its INFO line).
+fn start_recorder(domain: &PrivateDomain, out: &Path, extra: &[&str]) -> Proc {
+    let mut p = Proc::start(
+        Command::new(bin("mimnav"))
+            .args(config_args(domain))
+            .arg("record")
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .env("MIMNAV_LOG", "info")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    );
+    let rx = lines_of(p.0.stderr.take().expect("stderr"));
+    let mut seen = Vec::new();
+    assert!(
+        wait_until(
+            &rx,
+            |l| l.contains("recording"),
+            Duration::from_secs(10),
+            &mut seen
+        ),
+        "the recorder subscribes: {seen:?}"
+    );
+    // keep draining its stderr so it never blocks on a full pipe
+    std::thread::spawn(move || for _ in rx {});
+    p
+}
+
+fn driver(domain: &PrivateDomain, extra: &[&str]) -> Proc {
+    Proc::start(
+        Command::new(bin("mimnav-velodyne"))
+            .args(config_args(domain))
+            .arg("--pcap")
+            .arg(root().join("captures/scenario2_curtain_door.pcap"))
+            .args(extra)
+            .stderr(Stdio::null()),
+    )
+}
+
+/// Every revolution the test's own subscriber got, with the points of the first.
+struct Tapped {
+    seqs: Vec<u64>,
+    counts: Vec<usize>,
+    first: Vec<Point>,
+}
+
+fn tap_until(
+    sub: &ipc::PointsSubscriber,
+    within: Duration,
+    stop: impl Fn(&Tapped) -> bool,
+) -> (Tapped, bool) {
+    let mut t = Tapped {
+        seqs: Vec::new(),
+        counts: Vec::new(),
+        first: Vec::new(),
+    };
+    let until = Instant::now() + within;
+    let mut ended = false;
+    while Instant::now() < until && !ended && !stop(&t) {
+        ended = sub.heard_within(Duration::from_millis(20)).end_of_stream;
+        while let Some(s) = sub.receive().expect("receive") {
+            if t.seqs.is_empty() {
+                t.first = s.payload().to_vec();
+            }
+            t.seqs.push(s.user_header().seq);
+            t.counts.push(s.payload().len());
+        }
+    }
+    (t, ended)
+}
+
+fn u64s(v: &Value) -> Vec<u64> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .map(|x| x.as_u64().expect("integer"))
+        .collect()
+}
+
+#[test]
+fn records_the_bundled_capture_into_an_mcap_file_pypi_reads() {
+    let Some(python) = python_with_mcap("records_the_bundled_capture") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record");
+    let file = temp_mcap("record");
+    let mut recorder = start_recorder(&domain, &file.0, &["--seconds", "30"]);
+    let node = ipc::node(&domain.config(), "e2e-record-tap").expect("node");
+    let sub = ipc::points_subscriber(&node).expect("lidar/points");
+    let mut drv = driver(&domain, &["--set", "velodyne.replay_linger_s=1"]);
+    let (tapped, ended) = tap_until(&sub, Duration::from_secs(20), |_| false);
+    assert!(ended, "the replay ends");
+    // 0.5 s of a 600 rpm sensor
+    assert_eq!(tapped.seqs, [0, 1, 2, 3, 4], "the capture's revolutions");
+    let _ = drv.wait(Duration::from_secs(5));
+    // SIGTERM ends the recording cleanly, with its summary
+    std::thread::sleep(Duration::from_millis(300));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut recorder.0.stdout.take().unwrap(), &mut stdout).unwrap();
+    assert!(stdout.contains("ended by a signal"), "{stdout}");
+    assert!(
+        stdout.contains("mimnav/lidar/points: 5 written, 0 dropped (not kept up with), 0 bad"),
+        "{stdout}"
+    );
+
+    let got = read_mcap(&python, &file.0);
+    assert_eq!(got["truncated"], Value::Null, "{got}");
+    assert_eq!(got["summary"], true);
+    let topics = got["topics"].as_object().expect("topics");
+    assert_eq!(topics.len(), 10, "a channel for every topic: {topics:?}");
+    let points = &got["topics"]["mimnav/lidar/points"];
+    assert_eq!(points["schema"], "foxglove.PointCloud");
+    assert_eq!(points["schema_title"], "foxglove.PointCloud");
+    assert_eq!(points["schema_encoding"], "jsonschema");
+    assert_eq!(points["message_encoding"], "json");
+    assert_eq!(
+        u64s(&points["seqs"]),
+        tapped.seqs,
+        "every revolution recorded"
+    );
+    let counts: Vec<usize> = u64s(&points["points"])
+        .iter()
+        .map(|&n| n as usize)
+        .collect();
+    assert_eq!(counts, tapped.counts, "with every point");
+    // the driver's scan of each revolution too, and no other stack service ran
+    let scans = &got["topics"]["mimnav/lidar/scan2d"];
+    assert_eq!(u64s(&scans["seqs"]), tapped.seqs);
+    assert_eq!(got["topics"]["mimnav/map/plan"]["count"], 0);
+    assert_eq!(got["topics"]["mimnav/map/plan"]["schema"], "foxglove.Grid");
+    assert_eq!(
+        got["stats"]["mimnav/lidar/points"], 5,
+        "the summary's statistics"
+    );
+    assert_eq!(got["stats"]["mimnav/lidar/scan2d"], 5);
+
+    // the first revolution decodes to the values the driver sent
+    let cloud = &got["first_cloud"];
+    assert_eq!(cloud["seq"], 0);
+    let values: Vec<f32> = cloud["values"]
+        .as_array()
+        .expect("values")
+        .iter()
+        .map(|v| v.as_f64().expect("number") as f32)
+        .collect();
+    let sent: Vec<f32> = tapped
+        .first
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z, f32::from(p.intensity)])
+        .collect();
+    assert!(!sent.is_empty());
+    assert_eq!(values.len(), sent.len());
+    let differ = values
+        .iter()
+        .zip(&sent)
+        .filter(|(a, b)| a.to_bits() != b.to_bits())
+        .count();
+    assert_eq!(differ, 0, "bit for bit");
+}
+
+#[test]
+fn a_killed_recorder_leaves_its_complete_chunks_readable() {
+    let Some(python) = python_with_mcap("a_killed_recorder_leaves") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record-kill");
+    let file = temp_mcap("record-kill");
+    let mut recorder = start_recorder(&domain, &file.0, &["--topic", "lidar/points"]);
+    let node = ipc::node(&domain.config(), "e2e-record-kill-tap").expect("node");
+    let sub = ipc::points_subscriber(&node).expect("lidar/points");
+    let _drv = driver(&domain, &["--set", "velodyne.replay_loop=true"]);
+    // about 3.5 s of revolutions: more than one chunk, and more than one once-a-second flush
+    let (tapped, _) = tap_until(&sub, Duration::from_secs(20), |t| t.seqs.len() >= 35);
+    assert!(tapped.seqs.len() >= 35, "{} revolutions", tapped.seqs.len());
+    recorder.0.kill().expect("SIGKILL");
+    let _ = recorder.0.wait();
+
+    let got = read_mcap(&python, &file.0);
+    assert_eq!(
+        got["summary"], false,
+        "no summary after a SIGKILL: {}",
+        got["truncated"]
+    );
+    let points = &got["topics"]["mimnav/lidar/points"];
+    let seqs = u64s(&points["seqs"]);
+    assert!(
+        seqs.len() >= 20,
+        "the complete chunks hold most revolutions: {} of {} ({})",
+        seqs.len(),
+        tapped.seqs.len(),
+        got["truncated"]
+    );
+    // what was read is a run of revolutions the stack sent, each with every point
+    let counts = u64s(&points["points"]);
+    for (seq, n) in seqs.iter().zip(&counts) {
+        let k = tapped
+            .seqs
+            .iter()
+            .position(|s| s == seq)
+            .unwrap_or_else(|| panic!("revolution {seq} was sent"));
+        assert_eq!(*n as usize, tapped.counts[k], "revolution {seq}");
+    }
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+}
