@@ -7,7 +7,9 @@ to its last complete chunk (`truncated` then says where the reading stopped); `s
 whether the file ends with a summary (a clean end), and `stats` holds the summary's message
 counts per topic. Per topic: schema name and encoding, message encoding, the message count, the
 sequence numbers, and for `foxglove.PointCloud` messages the point counts. `first_cloud`: the
-first point cloud's sequence number and its x, y, z, intensity values.
+first point cloud's sequence number and its x, y, z, intensity values; `first_grid`, per topic of
+`foxglove.Grid` messages: the first one's sequence number, column count, cell stride and data
+(hex).
 """
 
 import base64
@@ -21,7 +23,7 @@ from mcap.stream_reader import StreamReader
 
 path = sys.argv[1]
 schemas, channels, topics = {}, {}, {}
-out = {"summary": False, "truncated": None, "stats": None, "topics": topics, "first_cloud": None}
+out = {"summary": False, "truncated": None, "stats": None, "topics": topics, "first_cloud": None, "first_grid": {}}
 
 with open(path, "rb") as f:
     try:
@@ -56,6 +58,13 @@ with open(path, "rb") as f:
                     if out["first_cloud"] is None:
                         values = struct.unpack("<%df" % (len(data) // 4), data)
                         out["first_cloud"] = {"seq": record.sequence, "values": values}
+                if t["schema"] == "foxglove.Grid" and channel.topic not in out["first_grid"]:
+                    out["first_grid"][channel.topic] = {
+                        "seq": record.sequence,
+                        "column_count": message["column_count"],
+                        "cell_stride": message["cell_stride"],
+                        "hex": base64.b64decode(message["data"]).hex(),
+                    }
             elif isinstance(record, Footer):
                 out["summary"] = record.summary_start != 0
     except Exception as e:  # a killed writer: the file ends inside a chunk

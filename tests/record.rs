@@ -272,3 +272,82 @@ fn a_killed_recorder_leaves_its_complete_chunks_readable() {
     }
     assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
 }
+
+#[test]
+fn records_the_mappers_grids_and_the_foliage_verdicts_as_they_were_sent() {
+    let Some(python) = python_with_mcap("records_the_mappers_grids") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record-maps");
+    let file = temp_mcap("record-maps");
+    let args = config_args(&domain);
+    let mut recorder = start_recorder(&domain, &file.0, &[]);
+    let node = ipc::node(&domain.config(), "e2e-record-maps-tap").expect("node");
+    let plan = ipc::plan_subscriber(&node).expect("map/plan");
+    let mut mapper = Proc::start(
+        Command::new(bin("mimnav-mapper"))
+            .args(&args)
+            .stderr(Stdio::null()),
+    );
+    let mut foliage = Proc::start(
+        Command::new(bin("mimnav-foliage"))
+            .args(&args)
+            .stderr(Stdio::null()),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let _drv = driver(&domain, &["--set", "velodyne.replay_linger_s=1"]);
+    let mut maps = Vec::new();
+    let until = Instant::now() + Duration::from_secs(20);
+    while maps.len() < 5 && Instant::now() < until {
+        plan.heard_within(Duration::from_millis(20));
+        while let Some(s) = plan.receive().expect("receive") {
+            maps.push((*s.user_header(), s.payload().to_vec()));
+        }
+    }
+    assert_eq!(maps.len(), 5, "a map a revolution");
+    // let the last verdicts and maps reach the recorder, then end it
+    std::thread::sleep(Duration::from_millis(500));
+    let _ = mapper.terminate(Duration::from_secs(2));
+    let _ = foliage.terminate(Duration::from_secs(2));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+
+    let got = read_mcap(&python, &file.0);
+    assert_eq!(got["summary"], true, "{}", got["truncated"]);
+    let seqs: Vec<u64> = maps.iter().map(|(h, _)| h.seq).collect();
+    for topic in ["mimnav/map/plan", "mimnav/map/layers"] {
+        assert_eq!(got["topics"][topic]["schema"], "foxglove.Grid");
+        assert_eq!(u64s(&got["topics"][topic]["seqs"]), seqs, "{topic}");
+    }
+    let verdicts = &got["topics"]["mimnav/foliage/alarm"];
+    assert_eq!(verdicts["schema"], "mimnav.FoliageAlarm");
+    assert_eq!(verdicts["count"], 5, "a verdict a scan");
+
+    // the first plan, transposed into Foxglove's rows along x, holds what the mapper sent
+    let grid = &got["first_grid"]["mimnav/map/plan"];
+    let (h, cells) = &maps[0];
+    assert_eq!(grid["seq"].as_u64(), Some(h.seq));
+    assert_eq!(grid["column_count"].as_u64(), Some(u64::from(h.cells)));
+    assert_eq!(grid["cell_stride"], 2);
+    let hex = grid["hex"].as_str().expect("hex");
+    let bytes: Vec<u8> = (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex"))
+        .collect();
+    let n = h.cells as usize;
+    let mut sent = Vec::with_capacity(2 * n * n);
+    for c in 0..n {
+        for r in 0..n {
+            let cell = cells[r * n + c];
+            sent.extend_from_slice(&[cell.class, cell.cost]);
+        }
+    }
+    assert_eq!(bytes.len(), sent.len());
+    assert!(bytes == sent, "the plan's classes and costs, cell for cell");
+    assert!(
+        sent.iter().step_by(2).any(|&c| c != sent[0]),
+        "a map with more than one class"
+    );
+}
