@@ -6,7 +6,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
-use mimnav_shared::topics::Point;
+use mimnav_shared::topics::{MapHeader, PlanCell, Point};
 use serde_json::Value;
 
 use crate::util::{Proc, TempFile, bin, config_args, lines_of, root, wait_until};
@@ -350,4 +350,73 @@ fn records_the_mappers_grids_and_the_foliage_verdicts_as_they_were_sent() {
         sent.iter().step_by(2).any(|&c| c != sent[0]),
         "a map with more than one class"
     );
+}
+
+#[test]
+fn a_bad_sample_is_counted_and_skipped_and_the_recording_goes_on() {
+    let domain = PrivateDomain::new("e2e-record-bad");
+    let file = temp_mcap("record-bad");
+    let mut recorder = start_recorder(&domain, &file.0, &["--topic", "map/plan"]);
+    let node = ipc::node(&domain.config(), "e2e-record-bad-pub").expect("node");
+    let publisher = ipc::plan_publisher(&node, 4).expect("map/plan");
+    let cells = [PlanCell::default(); 4];
+    // a header that claims 3 × 3 cells over a payload of 4, then a good one
+    let bad = MapHeader {
+        seq: 0,
+        cells: 3,
+        cell_m: 0.1,
+        ..Default::default()
+    };
+    publisher.publish(bad, &cells).expect("publish");
+    std::thread::sleep(Duration::from_millis(100));
+    let good = MapHeader {
+        seq: 1,
+        cells: 2,
+        ..bad
+    };
+    publisher.publish(good, &cells).expect("publish");
+    std::thread::sleep(Duration::from_millis(300));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut recorder.0.stdout.take().unwrap(), &mut stdout).unwrap();
+    assert!(
+        stdout.contains("mimnav/map/plan: 1 written, 0 dropped (not kept up with), 1 bad"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn max_bytes_ends_the_recording_cleanly() {
+    let Some(python) = python_with_mcap("max_bytes_ends_the_recording") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record-max");
+    let file = temp_mcap("record-max");
+    const MAX: u64 = 3_000_000;
+    let mut recorder = start_recorder(
+        &domain,
+        &file.0,
+        &["--topic", "lidar/points", "--max-bytes", &MAX.to_string()],
+    );
+    let _drv = driver(&domain, &["--set", "velodyne.replay_loop=true"]);
+    let status = recorder
+        .wait(Duration::from_secs(20))
+        .expect("the recorder ends by itself");
+    assert!(status.success(), "{status}");
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut recorder.0.stdout.take().unwrap(), &mut stdout).unwrap();
+    assert!(stdout.contains("ended by --max-bytes"), "{stdout}");
+    let size = std::fs::metadata(&file.0).expect("file").len();
+    // it stops at the first turn past the limit: at most a few revolutions over
+    assert!((MAX..MAX + 3_000_000).contains(&size), "{size} bytes");
+    let got = read_mcap(&python, &file.0);
+    assert_eq!(got["summary"], true, "{}", got["truncated"]);
+    let n = got["topics"]["mimnav/lidar/points"]["count"]
+        .as_u64()
+        .unwrap();
+    assert_eq!(got["stats"]["mimnav/lidar/points"].as_u64(), Some(n));
+    assert!(n >= 3, "{n} revolutions");
 }
