@@ -447,7 +447,6 @@ pub fn foliage(h: &FoliageHeader, returns: &[FoliageReturn]) -> Vec<u8> {
 /// odometry frame. mimnav stores cell (r along x, c along y) at `r · cells + c`; Foxglove fills
 /// each row along x, so the cells are transposed: Foxglove's `data` holds (r, c) at
 /// `c · cells + r`, `values_per_cell` values of `value_size` bytes each, written by `put`.
-#[allow(clippy::too_many_arguments)]
 fn grid(
     stamp_ns: u64,
     (x, y, yaw): (f64, f64, f64),
