@@ -297,27 +297,10 @@ fn field(name: &str, offset: usize, kind: u8) -> Value {
     json!({"name": name, "offset": offset, "type": kind})
 }
 
-const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
 /// Standard base64 with padding (RFC 4648 §4), what Foxglove's JSON `bytes` fields hold.
 pub fn base64(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(B64[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    use base64::Engine as _;
+    base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
 fn to_bytes(v: &Value) -> Vec<u8> {
@@ -558,17 +541,10 @@ mod tests {
     }
 
     fn unbase64(s: &str) -> Vec<u8> {
-        let val = |c: u8| B64.iter().position(|&b| b == c).expect("base64 digit") as u32;
-        let s = s.trim_end_matches('=').as_bytes();
-        let mut out = Vec::new();
-        for chunk in s.chunks(4) {
-            let n = chunk
-                .iter()
-                .enumerate()
-                .fold(0, |n, (k, &c)| n | val(c) << (18 - 6 * k));
-            out.extend_from_slice(&n.to_be_bytes()[1..chunk.len()]);
-        }
-        out
+        use base64::Engine as _;
+        base64::engine::general_purpose::STANDARD
+            .decode(s)
+            .expect("base64")
     }
 
     #[test]
