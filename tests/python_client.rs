@@ -3,7 +3,7 @@
 //! behind the driver replaying a real capture, and a Python publisher read by the Rust side.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -11,6 +11,7 @@ use mimnav_config::Config;
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 
 use crate::topics_doc::{Layout, documented_layouts, plain, table, tables, topics_md};
+use crate::util::python_command as python;
 use crate::util::{
     PointsTap, Proc, bin, config_args, lines_of, python_with_iceoryx2, reference_counts, root,
     shipped_config, velodyne_data, wait_until,
@@ -18,15 +19,6 @@ use crate::util::{
 
 fn client_dir() -> PathBuf {
     root().join("clients/python")
-}
-
-/// `python` with the client on its path and no `__pycache__` left in the tree.
-fn python(py: &Path) -> Command {
-    let mut c = Command::new(py);
-    c.env("PYTHONPATH", client_dir())
-        .env("PYTHONDONTWRITEBYTECODE", "1")
-        .arg("-u");
-    c
 }
 
 /// `key=value` pairs of a line.

@@ -11,37 +11,16 @@ use serde_json::Value;
 
 use crate::util::{Proc, TempFile, bin, config_args, lines_of, root, wait_until};
 
-/// The environment variable naming a Python with PyPI's `mcap` (`.ci/run` sets it).
-const MCAP_PYTHON_ENV: &str = "MIMNAV_MCAP_PYTHON";
-
-/// A Python that imports `mcap`: `MIMNAV_MCAP_PYTHON`, else `target/mcap-venv/bin/python`. None
-/// after a SKIP line when there is neither; a `MIMNAV_MCAP_PYTHON` without `mcap` fails.
+/// A Python with PyPI's `mcap` (`MIMNAV_MCAP_PYTHON`, which `.ci/run` sets, else
+/// `target/mcap-venv`), or None after a SKIP line.
 fn python_with_mcap(test: &str) -> Option<PathBuf> {
-    let (python, explicit) = match std::env::var_os(MCAP_PYTHON_ENV) {
-        Some(p) => (PathBuf::from(p), true),
-        None => (root().join("target/mcap-venv/bin/python"), false),
-    };
-    let imports = Command::new(&python)
-        .args(["-c", "import mcap, lz4"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    match (imports, explicit) {
-        (true, _) => Some(python),
-        (false, true) => panic!(
-            "{MCAP_PYTHON_ENV}={} cannot import mcap: `pip install mcap==1.6.0` into it",
-            python.display()
-        ),
-        (false, false) => {
-            println!(
-                "SKIP {test}: no Python with mcap at {} (run .ci/run, or set {MCAP_PYTHON_ENV})",
-                python.display()
-            );
-            None
-        }
-    }
+    crate::util::python_with(
+        test,
+        "MIMNAV_MCAP_PYTHON",
+        "mcap-venv",
+        "mcap, lz4",
+        "mcap==1.6.0",
+    )
 }
 
 /// `tests/mcap_read.py FILE`'s JSON.

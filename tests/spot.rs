@@ -8,62 +8,33 @@
 use std::io::Write;
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, PrivateDomain};
-use mimnav_shared::topics::{BaseState, VelocityCommand};
+use mimnav_shared::topics::{BaseState, VelocityCommand, base_halt};
 use serde_json::Value;
 
+use crate::util::python_command as python;
 use crate::util::{Proc, config_args, lines_of, root};
 
-/// The environment variable naming a Python with `bosdyn-client` and iceoryx2 (`.ci/run` sets it).
-const SPOT_PYTHON_ENV: &str = "MIMNAV_SPOT_PYTHON";
+const ESTOP: u16 = base_halt::ESTOP;
+const NO_LEASE: u16 = base_halt::NO_LEASE;
+const MOTORS_OFF: u16 = base_halt::MOTORS_OFF;
+const LINK_DOWN: u16 = base_halt::LINK_DOWN;
+const COMMAND_EXPIRED: u16 = base_halt::COMMAND_EXPIRED;
 
-const ESTOP: u16 = 32;
-const NO_LEASE: u16 = 64;
-const MOTORS_OFF: u16 = 128;
-const LINK_DOWN: u16 = 16;
-const COMMAND_EXPIRED: u16 = 8;
-
-/// `MIMNAV_SPOT_PYTHON`, else `target/spot-venv/bin/python`, if it imports the SDK and iceoryx2;
-/// None after a SKIP line (a set `MIMNAV_SPOT_PYTHON` that cannot is a failure).
+/// A Python with the SDK and iceoryx2 (`MIMNAV_SPOT_PYTHON`, which `.ci/run` sets, else
+/// `target/spot-venv`), or None after a SKIP line.
 fn spot_python(test: &str) -> Option<PathBuf> {
-    let (py, explicit) = match std::env::var_os(SPOT_PYTHON_ENV) {
-        Some(p) => (PathBuf::from(p), true),
-        None => (root().join("target/spot-venv/bin/python"), false),
-    };
-    let ok = Command::new(&py)
-        .args(["-c", "import bosdyn.client, bosdyn.api, iceoryx2"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    match (ok, explicit) {
-        (true, _) => Some(py),
-        (false, true) => panic!(
-            "{SPOT_PYTHON_ENV}={} cannot import bosdyn.client and iceoryx2",
-            py.display()
-        ),
-        (false, false) => {
-            println!(
-                "SKIP {test}: no Python with bosdyn-client and iceoryx2 at {} (run .ci/run, or \
-                 set {SPOT_PYTHON_ENV})",
-                py.display()
-            );
-            None
-        }
-    }
-}
-
-fn python(py: &Path) -> Command {
-    let mut c = Command::new(py);
-    c.env("PYTHONPATH", root().join("clients/python"))
-        .env("PYTHONDONTWRITEBYTECODE", "1")
-        .arg("-u");
-    c
+    crate::util::python_with(
+        test,
+        "MIMNAV_SPOT_PYTHON",
+        "spot-venv",
+        "bosdyn.client, bosdyn.api, iceoryx2",
+        "bosdyn-client==5.2.0 bosdyn-api==5.2.0 iceoryx2==0.10.0",
+    )
 }
 
 /// The fake robot: its process, its stdin (faults) and its records.

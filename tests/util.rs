@@ -242,12 +242,32 @@ pub const PYTHON_ENV: &str = "MIMNAV_PYTHON";
 /// `.ci/run` makes). None after printing a SKIP line when there is neither; a `MIMNAV_PYTHON` that
 /// cannot import iceoryx2 fails the test instead, so CI (which sets it) never skips.
 pub fn python_with_iceoryx2(test: &str) -> Option<PathBuf> {
-    let (python, explicit) = match std::env::var_os(PYTHON_ENV) {
+    python_with(
+        test,
+        PYTHON_ENV,
+        "iox2-venv",
+        "iceoryx2",
+        "iceoryx2==0.10.0",
+    )
+}
+
+/// A Python that imports `modules` (comma-separated, as `import` takes them): the one the
+/// environment variable `env` names, else `target/VENV/bin/python` (a venv `.ci/run` makes and
+/// names in `env`). None after printing a SKIP line when there is neither; a Python `env` names
+/// that cannot import them fails the test (`pip install PACKAGES` into it), so CI never skips.
+pub fn python_with(
+    test: &str,
+    env: &str,
+    venv: &str,
+    modules: &str,
+    packages: &str,
+) -> Option<PathBuf> {
+    let (python, explicit) = match std::env::var_os(env) {
         Some(p) => (PathBuf::from(p), true),
-        None => (root().join("target/iox2-venv/bin/python"), false),
+        None => (root().join("target").join(venv).join("bin/python"), false),
     };
     let imports = Command::new(&python)
-        .args(["-c", "import iceoryx2"])
+        .args(["-c", &format!("import {modules}")])
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -256,17 +276,27 @@ pub fn python_with_iceoryx2(test: &str) -> Option<PathBuf> {
     match (imports, explicit) {
         (true, _) => Some(python),
         (false, true) => panic!(
-            "{PYTHON_ENV}={} cannot import iceoryx2: `pip install iceoryx2==0.10.0` into it",
+            "{env}={} cannot import {modules}: `pip install {packages}` into it",
             python.display()
         ),
         (false, false) => {
             println!(
-                "SKIP {test}: no Python with iceoryx2 at {} (run .ci/run, or set {PYTHON_ENV})",
+                "SKIP {test}: no Python with {modules} at {} (run .ci/run, or set {env})",
                 python.display()
             );
             None
         }
     }
+}
+
+/// `python` with the Python client (`clients/python`) on its path and no `__pycache__` left in
+/// the tree.
+pub fn python_command(py: &std::path::Path) -> Command {
+    let mut c = Command::new(py);
+    c.env("PYTHONPATH", root().join("clients/python"))
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .arg("-u");
+    c
 }
 
 /// The lines `r` gives, on a channel, read by a thread of their own.
