@@ -91,6 +91,7 @@ fn run(config: &Config) -> Result<()> {
     let (mut next_try, mut last_report) = (Instant::now(), Instant::now());
     let mut buf = vec![0u8; k.read_bytes];
     let mut status = String::new();
+    let mut status_key = (u16::MAX, false, i32::MIN);
     let (mut commands_in, mut feedback_in) = (0u64, 0u64);
     let mut health = svc.health();
     tracing::info!(%device, "topics open: {}, {}, {}", topics::CMD_VEL, topics::ODOM, topics::BASE_STATE);
@@ -205,11 +206,18 @@ fn run(config: &Config) -> Result<()> {
                     turn.now,
                 );
             }
-            let now_status = describe(driver.state(), link.is_some(), &device);
-            if now_status != status {
-                tracing::info!(status = %now_status, "base");
-                h.sd.status(&now_status);
-                status = now_status;
+            // the STATUS= line is rebuilt only when what it says changes, not every 2 ms turn
+            let s = driver.state();
+            let key = (
+                s.halted,
+                link.is_some(),
+                (s.battery_v * 10.0).round() as i32,
+            );
+            if key != status_key {
+                status_key = key;
+                status = describe(s, link.is_some(), &device);
+                tracing::info!(status = %status, "base");
+                h.sd.status(&status);
             }
             if last_report.elapsed() >= STATS_INTERVAL {
                 let s = driver.frame_stats();
