@@ -7,7 +7,7 @@ to its last complete chunk (`truncated` then says where the reading stopped); `s
 whether the file ends with a summary (a clean end), and `stats` holds the summary's message
 counts per topic. Per topic: schema name and encoding, message encoding, the message count, the
 sequence numbers, and for `foxglove.PointCloud` messages the point counts. `first_cloud`: the
-first point cloud's sequence number and its x, y, z, intensity values; `first_grid`, per topic of
+first point cloud's sequence number and its x, y, z, intensity values (by the fields' offsets); `first_grid`, per topic of
 `foxglove.Grid` messages: the first one's sequence number, column count, cell stride and data
 (hex).
 """
@@ -56,7 +56,13 @@ with open(path, "rb") as f:
                     stride = message["point_stride"]
                     t["points"].append(len(data) // stride)
                     if out["first_cloud"] is None:
-                        values = struct.unpack("<%df" % (len(data) // 4), data)
+                        # x, y, z, intensity of every point, read by the fields' offsets
+                        # (FLOAT32 is NumericType 7)
+                        offsets = {f["name"]: f["offset"] for f in message["fields"] if f["type"] == 7}
+                        values = []
+                        for at in range(0, len(data), stride):
+                            for name in ("x", "y", "z", "intensity"):
+                                values.append(struct.unpack_from("<f", data, at + offsets[name])[0])
                         out["first_cloud"] = {"seq": record.sequence, "values": values}
                 if t["schema"] == "foxglove.Grid" and channel.topic not in out["first_grid"]:
                     out["first_grid"][channel.topic] = {

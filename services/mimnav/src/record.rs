@@ -16,6 +16,7 @@
 //! messages' `timestamp` is the sensor stamp.
 
 pub mod convert;
+pub mod restore;
 
 use std::collections::BTreeMap;
 use std::fs::File;

@@ -20,6 +20,8 @@ use mimnav_shared::topics::{
 /// Foxglove's `NumericType` values used here.
 mod numeric {
     pub const UINT8: u8 = 1;
+    pub const UINT16: u8 = 3;
+    pub const UINT32: u8 = 5;
     pub const FLOAT32: u8 = 7;
 }
 
@@ -28,8 +30,22 @@ pub const SENSOR_FRAME: &str = "lidar";
 /// Frame of odometry and of the maps: the fixed odometry frame.
 pub const ODOM_FRAME: &str = "odom";
 
-/// Bytes per point in a recorded `foxglove.PointCloud`: x, y, z, intensity as `f32`.
-pub const POINT_STRIDE: usize = 16;
+/// Bytes per point in a recorded `foxglove.PointCloud` ([`POINT_FIELDS`] and a padding byte).
+pub const POINT_STRIDE: usize = 28;
+
+/// The fields of a recorded point: name, byte offset, Foxglove `NumericType`.
+pub const POINT_FIELDS: [(&str, usize, u8); 10] = [
+    ("x", 0, numeric::FLOAT32),
+    ("y", 4, numeric::FLOAT32),
+    ("z", 8, numeric::FLOAT32),
+    ("intensity", 12, numeric::FLOAT32),
+    ("time_offset_ns", 16, numeric::UINT32),
+    ("distance_raw", 20, numeric::UINT16),
+    ("azimuth_cdeg", 22, numeric::UINT16),
+    ("laser_id", 24, numeric::UINT8),
+    ("ring", 25, numeric::UINT8),
+    ("return_type", 26, numeric::UINT8),
+];
 
 /// A topic `mimnav record` can record.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -256,7 +272,8 @@ fn point_cloud_schema() -> Value {
         "pose": pose_schema(),
         "point_stride": {"type": "integer", "minimum": 0},
         "fields": fields_schema(),
-        "data": bytes_schema()},
+        "data": bytes_schema(),
+        "mimnav": extra_schema()},
         "required": ["timestamp", "frame_id", "pose", "point_stride", "fields", "data"]})
 }
 
@@ -273,11 +290,19 @@ fn grid_schema() -> Value {
         "data": bytes_schema()}})
 }
 
+/// The `mimnav` object beside a Foxglove schema's fields: the sample's fields the schema has no
+/// place for (Foxglove ignores it; `mimnav replay` reads it).
+fn extra_schema() -> Value {
+    json!({"type": "object", "description":
+        "the sample's own fields, as in docs/topics.md, for `mimnav replay`"})
+}
+
 fn pose_in_frame_schema() -> Value {
     json!({"type": "object", "properties": {
         "timestamp": time_schema(),
         "frame_id": {"type": "string"},
-        "pose": pose_schema()},
+        "pose": pose_schema(),
+        "mimnav": extra_schema()},
         "required": ["timestamp", "frame_id", "pose"]})
 }
 
@@ -308,28 +333,47 @@ fn to_bytes(v: &Value) -> Vec<u8> {
     serde_json::to_vec(v).unwrap_or_default()
 }
 
-/// `lidar/points` as a `foxglove.PointCloud` in the sensor frame: x, y, z and intensity (the
-/// reflectivity byte as a float) of every point, in firing order, stamped with the revolution's
-/// sensor time.
+/// `lidar/points` as a `foxglove.PointCloud` in the sensor frame, stamped with the revolution's
+/// sensor time: every field of every [`Point`], in firing order ([`POINT_FIELDS`]: x, y, z and
+/// intensity — the reflectivity byte as a float, which Foxglove colours by — then the firing's
+/// time offset, raw distance, azimuth, laser, ring and return type), and the revolution's header
+/// under `mimnav` (ignored by Foxglove). Nothing is lost: `mimnav replay` publishes the same
+/// revolution from it ([`parse_points`]).
 pub fn points(h: &PointsHeader, pts: &[Point]) -> Vec<u8> {
     let mut data = Vec::with_capacity(pts.len() * POINT_STRIDE);
     for p in pts {
         for v in [p.x, p.y, p.z, f32::from(p.intensity)] {
             data.extend_from_slice(&v.to_le_bytes());
         }
+        data.extend_from_slice(&p.time_offset_ns.to_le_bytes());
+        data.extend_from_slice(&p.distance_raw.to_le_bytes());
+        data.extend_from_slice(&p.azimuth_cdeg.to_le_bytes());
+        data.extend_from_slice(&[p.laser_id, p.ring, p.return_type, 0]);
     }
+    let fields: Vec<Value> = POINT_FIELDS
+        .iter()
+        .map(|&(name, offset, kind)| field(name, offset, kind))
+        .collect();
     to_bytes(&json!({
         "timestamp": time(h.stamp_ns),
         "frame_id": SENSOR_FRAME,
         "pose": planar_pose(0.0, 0.0, 0.0),
         "point_stride": POINT_STRIDE,
-        "fields": [
-            field("x", 0, numeric::FLOAT32),
-            field("y", 4, numeric::FLOAT32),
-            field("z", 8, numeric::FLOAT32),
-            field("intensity", 12, numeric::FLOAT32),
-        ],
+        "fields": fields,
         "data": base64(&data),
+        "mimnav": {
+            "seq": h.seq,
+            "stamp_ns": h.stamp_ns,
+            "rx_mono_ns": h.rx_mono_ns,
+            "first_packet_seq": h.first_packet_seq,
+            "packet_count": h.packet_count,
+            "strongest_count": h.strongest_count,
+            "last_count": h.last_count,
+            "both_count": h.both_count,
+            "return_mode": h.return_mode,
+            "product": h.product,
+            "cut_reason": h.cut_reason,
+        },
     }))
 }
 
@@ -349,16 +393,27 @@ pub fn scan(h: &ScanHeader, returns: &[ScanReturn]) -> Vec<u8> {
     }))
 }
 
-/// `odom` as a `foxglove.PoseInFrame` in the odometry frame (the velocities are not kept).
+/// `odom` as a `foxglove.PoseInFrame` in the odometry frame, with every field of the sample under
+/// `mimnav` (the pose exactly, and the velocities, which a pose has no place for).
 pub fn odom(o: &Odometry) -> Vec<u8> {
     to_bytes(&json!({
         "timestamp": time(o.stamp_ns),
         "frame_id": ODOM_FRAME,
         "pose": planar_pose(o.x, o.y, o.yaw),
+        "mimnav": {
+            "seq": o.seq,
+            "stamp_ns": o.stamp_ns,
+            "rx_mono_ns": o.rx_mono_ns,
+            "x": o.x,
+            "y": o.y,
+            "yaw": o.yaw,
+            "v": o.v,
+            "omega": o.omega,
+        },
     }))
 }
 
-/// `cmd_vel`: every field.
+/// `cmd_vel`: every field of the command.
 pub fn cmd_vel(c: &VelocityCommand) -> Vec<u8> {
     to_bytes(&json!({
         "seq": c.seq,
@@ -580,11 +635,12 @@ mod tests {
     }
 
     #[test]
-    fn a_point_cloud_packs_x_y_z_and_intensity_as_little_endian_floats() {
+    fn a_point_cloud_packs_every_field_little_endian() {
         let h = PointsHeader {
             seq: 7,
             stamp_ns: 1_700_000_000_123_456_789,
             point_count: 2,
+            packet_count: 3,
             ..Default::default()
         };
         let pts = [
@@ -593,7 +649,12 @@ mod tests {
                 y: -2.25,
                 z: 0.125,
                 intensity: 7,
-                ..Default::default()
+                time_offset_ns: 0x0102_0304,
+                distance_raw: 0x0506,
+                azimuth_cdeg: 35_999,
+                laser_id: 14,
+                ring: 15,
+                return_type: 3,
             },
             Point {
                 x: -3.0,
@@ -609,19 +670,46 @@ mod tests {
             json!({"sec": 1_700_000_000u64, "nsec": 123_456_789})
         );
         assert_eq!(m["frame_id"], SENSOR_FRAME);
-        assert_eq!(m["point_stride"], 16);
-        let names: Vec<&str> = (0..4)
+        assert_eq!(m["point_stride"], 28);
+        let names: Vec<&str> = (0..10)
             .map(|k| m["fields"][k]["name"].as_str().unwrap())
             .collect();
-        assert_eq!(names, ["x", "y", "z", "intensity"]);
-        assert!((0..4).all(|k| m["fields"][k]["type"] == 7 && m["fields"][k]["offset"] == 4 * k));
+        assert_eq!(
+            names,
+            [
+                "x",
+                "y",
+                "z",
+                "intensity",
+                "time_offset_ns",
+                "distance_raw",
+                "azimuth_cdeg",
+                "laser_id",
+                "ring",
+                "return_type"
+            ]
+        );
+        // Foxglove's NumericType: FLOAT32 7, UINT32 5, UINT16 3, UINT8 1
+        let types: Vec<u64> = (0..10)
+            .map(|k| m["fields"][k]["type"].as_u64().unwrap())
+            .collect();
+        assert_eq!(types, [7, 7, 7, 7, 5, 3, 3, 1, 1, 1]);
         let data = unbase64(m["data"].as_str().unwrap());
-        let floats: Vec<f32> = data
+        assert_eq!(data.len(), 56);
+        let floats: Vec<f32> = data[..16]
             .chunks(4)
             .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
             .collect();
-        assert_eq!(floats, [1.5, -2.25, 0.125, 7.0, -3.0, 4.0, -0.5, 255.0]);
+        assert_eq!(floats, [1.5, -2.25, 0.125, 7.0]);
+        assert_eq!(
+            data[16..28],
+            [4, 3, 2, 1, 6, 5, 0x9f, 0x8c, 14, 15, 3, 0],
+            "time, distance, azimuth 35999 = 0x8c9f, laser, ring, return type, padding"
+        );
+        assert_eq!(f32::from_le_bytes(data[40..44].try_into().unwrap()), 255.0);
         assert_eq!(m["pose"]["orientation"]["w"], 1.0);
+        assert_eq!(m["mimnav"]["seq"], 7);
+        assert_eq!(m["mimnav"]["packet_count"], 3);
     }
 
     #[test]
