@@ -6,7 +6,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
-use mimnav_shared::topics::{MapHeader, PlanCell, Point};
+use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, Point, PointsHeader};
 use serde_json::Value;
 
 use crate::util::{Proc, TempFile, bin, config_args, lines_of, root, wait_until};
@@ -398,4 +398,231 @@ fn max_bytes_ends_the_recording_cleanly() {
         .unwrap();
     assert_eq!(got["stats"]["mimnav/lidar/points"].as_u64(), Some(n));
     assert!(n >= 3, "{n} revolutions");
+}
+
+/// Every revolution a subscriber got, whole.
+type Revolutions = Vec<(PointsHeader, Vec<Point>)>;
+
+fn drain_points(sub: &ipc::PointsSubscriber, into: &mut Revolutions) {
+    while let Some(s) = sub.receive().expect("receive") {
+        into.push((*s.user_header(), s.payload().to_vec()));
+    }
+}
+
+fn drain_plans(sub: &ipc::PlanSubscriber, into: &mut Vec<(MapHeader, Vec<PlanCell>)>) {
+    while let Some(s) = sub.receive().expect("receive") {
+        into.push((*s.user_header(), s.payload().to_vec()));
+    }
+}
+
+fn mapper(domain: &PrivateDomain) -> Proc {
+    Proc::start(
+        Command::new(bin("mimnav-mapper"))
+            .args(config_args(domain))
+            .stderr(Stdio::null()),
+    )
+}
+
+/// Issue 25 item 2: `mimnav replay run.mcap` feeds a recording of the driver and the odometry
+/// into another stack (here: another domain with its own mapper). Every revolution and
+/// odometry sample arrives as it was first sent (only `rx_mono_ns` is the replay's own), and
+/// the mapper makes the same maps of them. No Python: mimnav reads its own recording.
+#[test]
+fn a_recording_replays_into_a_stack_as_it_was_sent() {
+    let first = PrivateDomain::new("e2e-replay-rec");
+    let file = temp_mcap("replay");
+    let topics = [
+        "--topic",
+        "lidar/points",
+        "--topic",
+        "lidar/scan2d",
+        "--topic",
+        "odom",
+        "--topic",
+        "map/plan",
+    ];
+    let mut recorder = start_recorder(&first, &file.0, &topics);
+    let node = ipc::node(&first.config(), "e2e-replay-rec-tap").expect("node");
+    let points = ipc::points_subscriber(&node).expect("lidar/points");
+    let plans = ipc::plan_subscriber(&node).expect("map/plan");
+    let odom = ipc::odom_publisher(&node).expect("odom");
+    let mut mapper_a = mapper(&first);
+    std::thread::sleep(Duration::from_millis(300));
+    // odometry whose numbers need every bit of an f64 to come back
+    let sent_odom: Vec<Odometry> = (0..3u32)
+        .map(|k| Odometry {
+            seq: u64::from(k),
+            stamp_ns: 1_700_000_000_000_000_000 + u64::from(k) * 40_000_000,
+            rx_mono_ns: ipc::monotonic_ns(),
+            x: 0.1 + f64::from(k) / 3.0,
+            y: -1.0 / 7.0,
+            yaw: 0.3 + f64::from(k) * std::f64::consts::PI / 9.0,
+            v: 0.3,
+            omega: -0.1,
+        })
+        .collect();
+    for o in &sent_odom {
+        odom.publish(*o).expect("publish odom");
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    let mut drv = driver(&first, &["--set", "velodyne.replay_linger_s=1"]);
+    let (mut revs, mut maps) = (Vec::new(), Vec::new());
+    let until = Instant::now() + Duration::from_secs(20);
+    while maps.len() < 5 && Instant::now() < until {
+        points.heard_within(Duration::from_millis(20));
+        drain_points(&points, &mut revs);
+        drain_plans(&plans, &mut maps);
+    }
+    assert_eq!(revs.len(), 5, "the capture's revolutions");
+    assert_eq!(maps.len(), 5, "a map a revolution");
+    let _ = drv.wait(Duration::from_secs(5));
+    std::thread::sleep(Duration::from_millis(500));
+    let _ = mapper_a.terminate(Duration::from_secs(2));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+
+    // the second stack: its own domain, its own mapper
+    let second = PrivateDomain::new("e2e-replay-play");
+    let node = ipc::node(&second.config(), "e2e-replay-play-tap").expect("node");
+    let points = ipc::points_subscriber(&node).expect("lidar/points");
+    let plans = ipc::plan_subscriber(&node).expect("map/plan");
+    let odom = ipc::odom_subscriber(&node).expect("odom");
+    let mut mapper_b = mapper(&second);
+    std::thread::sleep(Duration::from_millis(300));
+    let started = Instant::now();
+    let mut replay = Proc::start(
+        Command::new(bin("mimnav"))
+            .args(config_args(&second))
+            .arg("replay")
+            .arg(&file.0)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    );
+    let (mut revs_b, mut maps_b, mut odom_b) = (Vec::new(), Vec::new(), Vec::new());
+    let until = Instant::now() + Duration::from_secs(20);
+    while (maps_b.len() < 5 || replay.0.try_wait().expect("wait").is_none())
+        && Instant::now() < until
+    {
+        points.heard_within(Duration::from_millis(10));
+        drain_points(&points, &mut revs_b);
+        drain_plans(&plans, &mut maps_b);
+        while let Some(o) = odom.receive().expect("receive") {
+            odom_b.push(o);
+        }
+    }
+    let took = started.elapsed();
+    let status = replay
+        .wait(Duration::from_secs(5))
+        .expect("the replay ends");
+    let (mut stdout, mut stderr) = (String::new(), String::new());
+    std::io::Read::read_to_string(&mut replay.0.stdout.take().expect("stdout"), &mut stdout)
+        .expect("read stdout");
+    std::io::Read::read_to_string(&mut replay.0.stderr.take().expect("stderr"), &mut stderr)
+        .expect("read stderr");
+    assert!(status.success(), "{stdout}{stderr}");
+    let _ = mapper_b.terminate(Duration::from_secs(2));
+    assert!(
+        stdout.contains("5 revolutions, 5 scans, 3 odometry samples replayed"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("5 messages of other topics not replayed"),
+        "{stdout}"
+    );
+    // recorded in real time over about half a second: replayed at that pace, not at once
+    assert!(took >= Duration::from_millis(350), "{took:?}");
+
+    let same_but_rx = |a: &PointsHeader, b: &PointsHeader| {
+        PointsHeader {
+            rx_mono_ns: 0,
+            ..*a
+        } == PointsHeader {
+            rx_mono_ns: 0,
+            ..*b
+        }
+    };
+    assert_eq!(revs_b.len(), revs.len(), "every revolution replayed");
+    for ((ha, pa), (hb, pb)) in revs.iter().zip(&revs_b) {
+        assert!(same_but_rx(ha, hb), "{ha:?} vs {hb:?}");
+        assert!(hb.rx_mono_ns > ha.rx_mono_ns, "stamped by the replay");
+        assert_eq!(pa.len(), pb.len());
+        assert!(
+            pa.iter()
+                .zip(pb)
+                .all(|(a, b)| a.x.to_bits() == b.x.to_bits()
+                    && a.y.to_bits() == b.y.to_bits()
+                    && a.z.to_bits() == b.z.to_bits()
+                    && (a.time_offset_ns, a.distance_raw, a.azimuth_cdeg)
+                        == (b.time_offset_ns, b.distance_raw, b.azimuth_cdeg)
+                    && (a.intensity, a.laser_id, a.ring, a.return_type)
+                        == (b.intensity, b.laser_id, b.ring, b.return_type)),
+            "revolution {}: every point, every field",
+            ha.seq
+        );
+    }
+    assert_eq!(odom_b.len(), sent_odom.len());
+    for (a, b) in sent_odom.iter().zip(&odom_b) {
+        assert_eq!(
+            Odometry {
+                rx_mono_ns: 0,
+                ..*a
+            },
+            Odometry {
+                rx_mono_ns: 0,
+                ..*b
+            }
+        );
+    }
+    // the second mapper made the first one's maps of them
+    assert_eq!(maps_b.len(), maps.len());
+    for ((ha, ca), (hb, cb)) in maps.iter().zip(&maps_b) {
+        assert_eq!((ha.seq, ha.cells), (hb.seq, hb.cells));
+        assert!(ca == cb, "map {}: cell for cell", ha.seq);
+    }
+}
+
+/// A recording cut short (its recorder was killed) replays up to its last complete chunk and
+/// says so; a file that is not MCAP or holds nothing to replay is refused with a clear message.
+#[test]
+fn a_damaged_or_empty_recording_is_named() {
+    let domain = PrivateDomain::new("e2e-replay-bad");
+    let file = temp_mcap("replay-bad");
+    let mut recorder = start_recorder(&domain, &file.0, &["--topic", "lidar/points"]);
+    let mut drv = driver(&domain, &["--set", "velodyne.replay_linger_s=1"]);
+    let _ = drv.wait(Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(1500));
+    // SIGKILL: no summary, no end magic
+    recorder.0.kill().expect("kill the recorder");
+    let _ = recorder.0.wait();
+    let run = |path: &Path| {
+        Command::new(bin("mimnav"))
+            .args(config_args(&domain))
+            .arg("replay")
+            .arg("--fast")
+            .arg("--quiet")
+            .arg(path)
+            .output()
+            .expect("run mimnav replay")
+    };
+    let out = run(&file.0);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("5 revolutions"), "{stdout}");
+    assert!(stderr.contains("ends early"), "{stderr}");
+
+    // an MCAP file with only the magic: nothing to replay
+    let empty = temp_mcap("replay-empty");
+    std::fs::write(&empty.0, b"\x89MCAP0\r\n").expect("write");
+    let out = run(&empty.0);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("no lidar/points, lidar/scan2d or odom"),
+        "{stderr}"
+    );
 }

@@ -1,5 +1,8 @@
 //! `mimnav replay FILE`: runs the driver on a capture as its own process and prints every
-//! revolution it publishes on `lidar/points`.
+//! revolution it publishes on `lidar/points`; or, for an MCAP recording of `mimnav record`,
+//! publishes the recorded sensor topics into the running stack ([`from_mcap`]).
+
+mod from_mcap;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -24,7 +27,8 @@ const PROGRESS_MIN_PACKETS: u64 = 10_000;
 /// Arguments of `mimnav replay`.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
-    /// The capture: pcap or pcapng.
+    /// The capture (pcap or pcapng), or an MCAP recording of `mimnav record`, whose
+    /// lidar/points, lidar/scan2d and odom are published into the running stack.
     file: PathBuf,
     /// Replay speed factor (1.0 is real time).
     #[arg(long, default_value_t = 1.0)]
@@ -120,6 +124,9 @@ pub fn run(
 ) -> Result<ExitCode> {
     if args.speed.is_nan() || args.speed <= 0.0 {
         bail!("--speed must be above 0, got {}", args.speed);
+    }
+    if from_mcap::is_mcap(&args.file) {
+        return from_mcap::run(config, args);
     }
     let total = count_data_packets(&args.file)?;
     let binary = service_binary("mimnav-velodyne")?;
