@@ -139,3 +139,73 @@ fn simulator_driver_and_mapper_put_a_wall_where_it_stands() {
         "free between the robot and the wall"
     );
 }
+
+/// Issue 25 item 4: `mimnav snapshot` writes the map with a legend panel, a scale bar, the goal
+/// and the robot's body (Spot's rectangle), decoded here with the png crate.
+#[test]
+fn a_snapshot_has_its_legend_scale_goal_and_robot() {
+    let domain = PrivateDomain::new("e2e-snapshot");
+    let args = config_args(&domain);
+    let spot = ["--set", "robot.profile=\"spot\""];
+    let mut mapper = Proc::start(
+        Command::new(bin("mimnav-mapper"))
+            .args(&args)
+            .args(spot)
+            .stderr(Stdio::null()),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let mut driver = Proc::start(
+        Command::new(bin("mimnav-velodyne"))
+            .args(&args)
+            .arg("--pcap")
+            .arg(root().join("captures/scenario2_curtain_door.pcap"))
+            .args(["--set", "velodyne.replay_loop=true"])
+            .stderr(Stdio::null()),
+    );
+    let file = crate::util::TempFile(
+        std::env::temp_dir().join(format!("mimnav-snapshot-{}.png", std::process::id())),
+    );
+    let out = Command::new(bin("mimnav"))
+        .args(&args)
+        .args(spot)
+        .args(["snapshot", "--goal", "3", "-1", "--out"])
+        .arg(&file.0)
+        .output()
+        .expect("run mimnav snapshot");
+    let _ = driver.terminate(Duration::from_secs(1));
+    let _ = mapper.terminate(Duration::from_secs(1));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&file.0).expect("the PNG"),
+    ));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut rgb = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut rgb).expect("its pixels");
+    // the 600 px map (200 cells of 3 px) and the 200 px legend on its right
+    assert_eq!((info.width, info.height), (800, 600));
+    let at = |x: u32, y: u32| {
+        let o = ((y * info.width + x) * 3) as usize;
+        [rgb[o], rgb[o + 1], rgb[o + 2]]
+    };
+    let count = |xs: std::ops::Range<u32>, c: [u8; 3]| {
+        xs.flat_map(|x| (0..info.height).map(move |y| (x, y)))
+            .filter(|&(x, y)| at(x, y) == c)
+            .count()
+    };
+    let (robot, goal, ink) = ([255, 105, 180], [40, 110, 255], [235, 235, 235]);
+    // the goal 3 m ahead, 1 m right of where the map was made (the robot stands at the origin)
+    assert!(count(0..600, goal) > 20, "the goal's disc on the map");
+    assert!(count(600..800, goal) > 50, "and its swatch in the legend");
+    assert!(count(0..600, robot) > 100, "Spot's 1.1 × 0.5 m outline");
+    // the labels and a 2 m scale bar (0.05 m cells: 60 px a metre) in ink
+    assert!(count(600..800, ink) > 1000, "the legend's text");
+    let longest = (0..info.height)
+        .map(|y| (600..800).filter(|&x| at(x, y) == ink).count())
+        .max()
+        .unwrap_or(0);
+    assert_eq!(longest, 120, "the scale bar: 2 m at 60 px a metre");
+}

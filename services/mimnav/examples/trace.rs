@@ -74,6 +74,7 @@ fn run() -> anyhow::Result<()> {
             &Marks {
                 robot_radius_m: config.robot.radius_m,
                 goal: Some((gx, gy)),
+                ..Marks::default()
             },
         );
         let cmd = turn.command.map(|(d, c)| (d.status, c.v, c.omega));

@@ -21,7 +21,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use mimnav_mapper::render::{self, Marks, render_map};
+use mimnav_mapper::render::{Marks, render_map_with_legend};
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc;
@@ -286,23 +286,18 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         };
         let robot = pose2(h.x, h.y, h.yaw);
         let to_robot = |x: f64, y: f64| robot.to_local(x, y);
-        let mut img = render_map(
+        let img = render_map_with_legend(
             grid,
             classes,
             &[],
             &Marks {
                 robot_radius_m: config.robot.radius_m,
+                body_m: crate::snapshot::body_of(&config),
                 goal: Some(to_robot(goal_odom.0, goal_odom.1)),
+                path: path.iter().map(|p| to_robot(p.0, p.1)).collect(),
             },
+            &format!("{}: map {}", world.name, h.seq),
         );
-        for w in path.windows(2) {
-            let (a, b) = (to_robot(w[0].0, w[0].1), to_robot(w[1].0, w[1].1));
-            img.line(
-                render::pixel(grid, a.0, a.1),
-                render::pixel(grid, b.0, b.1),
-                [0, 200, 255],
-            );
-        }
         crate::snapshot::write_png(&args.out, &img)?;
     }
     latencies_ms.sort_by(f64::total_cmp);

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use mimnav_config::Config;
-use mimnav_mapper::render::{Image, Marks, render_layers, render_map};
+use mimnav_mapper::render::{Image, Marks, render_layers, render_map_with_legend};
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::pose::{Pose2Ext, pose2};
@@ -33,6 +33,12 @@ pub struct SnapshotArgs {
 pub fn write_png(path: &std::path::Path, img: &Image) -> Result<()> {
     img.write_png(path)
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The robot's rectangular body (length, width), when its profile gives one.
+pub fn body_of(config: &Config) -> Option<(f64, f64)> {
+    let r = &config.robot;
+    (r.length_m > 0.0 && r.width_m > 0.0).then_some((r.length_m, r.width_m))
 }
 
 /// The brightest main layer's I_j of every cell (for the shading of solid cells).
@@ -98,9 +104,17 @@ pub fn run(config: &Config, args: &SnapshotArgs) -> Result<ExitCode> {
         let goal = args.goal.as_ref().map(|g| robot.to_local(g[0], g[1]));
         let marks = Marks {
             robot_radius_m: config.robot.radius_m,
+            body_m: body_of(config),
             goal,
+            path: Vec::new(),
         };
-        render_map(grid, &classes, &brightest(&layer_values, &header), &marks)
+        render_map_with_legend(
+            grid,
+            &classes,
+            &brightest(&layer_values, &header),
+            &marks,
+            &format!("map {}", header.seq),
+        )
     };
     write_png(&args.out, &img)?;
     outln!(
