@@ -156,7 +156,12 @@ fn records_the_bundled_capture_into_an_mcap_file_pypi_reads() {
     assert_eq!(got["truncated"], Value::Null, "{got}");
     assert_eq!(got["summary"], true);
     let topics = got["topics"].as_object().expect("topics");
-    assert_eq!(topics.len(), 10, "a channel for every topic: {topics:?}");
+    assert_eq!(
+        topics.len(),
+        11,
+        "a channel for every topic, and the transforms: {topics:?}"
+    );
+    assert_eq!(topics["mimnav/tf"]["schema"], "foxglove.FrameTransforms");
     let points = &got["topics"]["mimnav/lidar/points"];
     assert_eq!(points["schema"], "foxglove.PointCloud");
     assert_eq!(points["schema_title"], "foxglove.PointCloud");
@@ -527,8 +532,9 @@ fn a_recording_replays_into_a_stack_as_it_was_sent() {
         stdout.contains("5 revolutions, 5 scans, 3 odometry samples replayed"),
         "{stdout}"
     );
+    // the 5 maps, and the 3 transforms written with the odometry
     assert!(
-        stdout.contains("5 messages of other topics not replayed"),
+        stdout.contains("8 messages of other topics not replayed"),
         "{stdout}"
     );
     // recorded in real time over about half a second: replayed at that pace, not at once

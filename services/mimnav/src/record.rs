@@ -101,8 +101,20 @@ enum Sub {
     Truth(ipc::TruthSubscriber),
 }
 
-/// A converted sample: its sequence number, its sensor stamp if its type has one, the message.
-type Converted = (u64, Option<u64>, Result<Vec<u8>, BadSample>);
+/// A converted sample: its sequence number, its sensor stamp if its type has one, the message,
+/// and for odometry the frames' transforms at its pose.
+type Converted = (
+    u64,
+    Option<u64>,
+    Result<Vec<u8>, BadSample>,
+    Option<Vec<u8>>,
+);
+
+/// Where the sensor sits on the robot, for the transforms written with odometry.
+struct Frames {
+    mount: mimnav_shared::pose::LidarMount,
+    sensor_height_m: f64,
+}
 
 impl Sub {
     fn open(node: &iceoryx2::prelude::Node<Svc>, topic: Topic) -> Result<Sub, ipc::IpcError> {
@@ -122,39 +134,49 @@ impl Sub {
 
     /// The next sample, converted, if one is waiting. A slice sample is released before this
     /// returns (a slice subscriber may hold one at a time).
-    fn next(&self) -> Result<Option<Converted>, ipc::IpcError> {
+    fn next(&self, frames: &Frames) -> Result<Option<Converted>, ipc::IpcError> {
         use convert as c;
         Ok(match self {
             Sub::Points(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), Ok(c::points(h, s.payload())))
+                (h.seq, Some(h.stamp_ns), Ok(c::points(h, s.payload())), None)
             }),
             Sub::Scan(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), Ok(c::scan(h, s.payload())))
+                (h.seq, Some(h.stamp_ns), Ok(c::scan(h, s.payload())), None)
             }),
             Sub::Plan(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), c::plan(h, s.payload()))
+                (h.seq, Some(h.stamp_ns), c::plan(h, s.payload()), None)
             }),
             Sub::Layers(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), c::layers(h, s.payload()))
+                (h.seq, Some(h.stamp_ns), c::layers(h, s.payload()), None)
             }),
             Sub::Foliage(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), Ok(c::foliage(h, s.payload())))
+                (
+                    h.seq,
+                    Some(h.stamp_ns),
+                    Ok(c::foliage(h, s.payload())),
+                    None,
+                )
             }),
             Sub::Truth(s) => s.receive()?.map(|s| {
                 let h = s.user_header();
-                (h.seq, Some(h.stamp_ns), c::truth(h, s.payload()))
+                (h.seq, Some(h.stamp_ns), c::truth(h, s.payload()), None)
             }),
-            Sub::Odom(s) => s
+            Sub::Odom(s) => s.receive()?.map(|o| {
+                let tf = c::transforms(&o, &frames.mount, frames.sensor_height_m);
+                (o.seq, Some(o.stamp_ns), Ok(c::odom(&o)), Some(tf))
+            }),
+            Sub::CmdVel(s) => s
                 .receive()?
-                .map(|o| (o.seq, Some(o.stamp_ns), Ok(c::odom(&o)))),
-            Sub::CmdVel(s) => s.receive()?.map(|v| (v.seq, None, Ok(c::cmd_vel(&v)))),
-            Sub::Goal(s) => s.receive()?.map(|g| (g.seq, None, Ok(c::goal(&g)))),
-            Sub::BaseState(s) => s.receive()?.map(|b| (b.seq, None, Ok(c::base_state(&b)))),
+                .map(|v| (v.seq, None, Ok(c::cmd_vel(&v)), None)),
+            Sub::Goal(s) => s.receive()?.map(|g| (g.seq, None, Ok(c::goal(&g)), None)),
+            Sub::BaseState(s) => s
+                .receive()?
+                .map(|b| (b.seq, None, Ok(c::base_state(&b)), None)),
         })
     }
 }
@@ -234,6 +256,19 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
             errors: 0,
         });
     }
+    // the frames' transforms ride with odometry
+    let tf_channel = if channels.iter().any(|c| c.topic == Topic::Odom) {
+        let schema = serde_json::to_vec(&convert::transforms_schema())?;
+        let schema_id = writer.add_schema(convert::TF_SCHEMA, "jsonschema", &schema)?;
+        Some(writer.add_channel(schema_id, convert::TF_CHANNEL, "json", &BTreeMap::new())?)
+    } else {
+        None
+    };
+    let frames = Frames {
+        mount: config.robot.mount,
+        sensor_height_m: config.robot.sensor_height_m,
+    };
+    let mut tf_written = 0u64;
     // CLOCK_MONOTONIC → Unix ns
     let epoch_offset = ipc::realtime_ns() as i128 - ipc::monotonic_ns() as i128;
     let start = Instant::now();
@@ -249,7 +284,7 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
         for ch in &mut channels {
             // at most a few samples a topic a turn, so one busy topic cannot starve the others
             for _ in 0..8 {
-                let got = match ch.sub.next() {
+                let got = match ch.sub.next(&frames) {
                     Ok(Some(got)) => got,
                     Ok(None) => break,
                     Err(e) => {
@@ -259,7 +294,7 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
                     }
                 };
                 busy = true;
-                let (seq, stamp, message) = got;
+                let (seq, stamp, message, tf) = got;
                 ch.hop.see(seq);
                 let message = match message {
                     Ok(m) => m,
@@ -280,6 +315,16 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
                     .write_to_known_channel(&header, &message)
                     .with_context(|| format!("cannot write {}", args.out.display()))?;
                 ch.written += 1;
+                if let (Some(id), Some(tf)) = (tf_channel, tf) {
+                    let header = mcap::records::MessageHeader {
+                        channel_id: id,
+                        ..header
+                    };
+                    writer
+                        .write_to_known_channel(&header, &tf)
+                        .with_context(|| format!("cannot write {}", args.out.display()))?;
+                    tf_written += 1;
+                }
             }
         }
         if end.load(Ordering::Relaxed) >= args.max_bytes {
@@ -320,6 +365,12 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
             ch.hop.dropped(),
             ch.bad,
             ch.errors
+        )?;
+    }
+    if tf_channel.is_some() {
+        outln!(
+            "{}: {tf_written} written (with odometry)",
+            convert::TF_CHANNEL
         )?;
     }
     Ok(ExitCode::SUCCESS)

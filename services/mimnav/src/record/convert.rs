@@ -12,6 +12,7 @@
 
 use serde_json::{Value, json};
 
+use mimnav_shared::pose::LidarMount;
 use mimnav_shared::topics::{
     self, BaseState, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, PlanCell, Point,
     PointsHeader, ScanHeader, ScanReturn, TruthHeader, VelocityCommand,
@@ -29,6 +30,13 @@ mod numeric {
 pub const SENSOR_FRAME: &str = "lidar";
 /// Frame of odometry and of the maps: the fixed odometry frame.
 pub const ODOM_FRAME: &str = "odom";
+/// The robot's frame: on the ground under its centre, x ahead (REP-105's `base_link`).
+pub const BASE_FRAME: &str = "base_link";
+
+/// The channel of the frames' transforms, written with every odometry sample.
+pub const TF_CHANNEL: &str = "mimnav/tf";
+/// Its schema's name.
+pub const TF_SCHEMA: &str = "foxglove.FrameTransforms";
 
 /// Bytes per point in a recorded `foxglove.PointCloud` ([`POINT_FIELDS`] and a padding byte).
 pub const POINT_STRIDE: usize = 28;
@@ -413,6 +421,46 @@ pub fn odom(o: &Odometry) -> Vec<u8> {
     }))
 }
 
+/// The transforms that place the sensor's points in the odometry frame, Foxglove's
+/// `foxglove.FrameTransforms`: `odom` → `base_link` at the odometry pose, and `base_link` →
+/// `lidar` by the profile's mount (`robot.mount`, at `robot.sensor_height_m` above the ground),
+/// both stamped with the odometry's time.
+pub fn transforms(o: &Odometry, mount: &LidarMount, sensor_height_m: f64) -> Vec<u8> {
+    let iso = mount.isometry();
+    let q = iso.rotation.coords;
+    let base = planar_pose(o.x, o.y, o.yaw);
+    to_bytes(&json!({"transforms": [
+        {
+            "timestamp": time(o.stamp_ns),
+            "parent_frame_id": ODOM_FRAME,
+            "child_frame_id": BASE_FRAME,
+            "translation": base["position"],
+            "rotation": base["orientation"],
+        },
+        {
+            "timestamp": time(o.stamp_ns),
+            "parent_frame_id": BASE_FRAME,
+            "child_frame_id": SENSOR_FRAME,
+            "translation": {"x": mount.x_m, "y": mount.y_m, "z": sensor_height_m},
+            "rotation": {"x": q.x, "y": q.y, "z": q.z, "w": q.w},
+        },
+    ]}))
+}
+
+/// The JSON schema of [`transforms`]' messages.
+pub fn transforms_schema() -> Value {
+    let transform = json!({"type": "object", "title": "foxglove.FrameTransform", "properties": {
+        "timestamp": time_schema(),
+        "parent_frame_id": {"type": "string"},
+        "child_frame_id": {"type": "string"},
+        "translation": xyz_schema(&["x", "y", "z"], "foxglove.Vector3"),
+        "rotation": xyz_schema(&["x", "y", "z", "w"], "foxglove.Quaternion")}});
+    json!({"type": "object", "title": TF_SCHEMA,
+        "description": "the frames odom → base_link → lidar, as recorded by `mimnav record`",
+        "properties": {"transforms": {"type": "array", "items": transform}},
+        "required": ["transforms"]})
+}
+
 /// `cmd_vel`: every field of the command.
 pub fn cmd_vel(c: &VelocityCommand) -> Vec<u8> {
     to_bytes(&json!({
@@ -710,6 +758,36 @@ mod tests {
         assert_eq!(m["pose"]["orientation"]["w"], 1.0);
         assert_eq!(m["mimnav"]["seq"], 7);
         assert_eq!(m["mimnav"]["packet_count"], 3);
+    }
+
+    #[test]
+    fn transforms_chain_odom_base_and_lidar_by_the_mount() {
+        let o = Odometry {
+            stamp_ns: 2_000_000_001,
+            x: 1.0,
+            y: 2.0,
+            yaw: std::f64::consts::FRAC_PI_2,
+            ..Default::default()
+        };
+        let mount = LidarMount {
+            x_m: 0.2,
+            yaw_deg: 180.0,
+            ..Default::default()
+        };
+        let m = parse(&transforms(&o, &mount, 0.7));
+        let t = &m["transforms"];
+        assert_eq!(t[0]["parent_frame_id"], ODOM_FRAME);
+        assert_eq!(t[0]["child_frame_id"], BASE_FRAME);
+        assert_eq!(t[0]["translation"], json!({"x": 1.0, "y": 2.0, "z": 0.0}));
+        let w = t[0]["rotation"]["w"].as_f64().unwrap();
+        assert!((w - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-12);
+        assert_eq!(t[0]["timestamp"], json!({"sec": 2, "nsec": 1}));
+        assert_eq!(t[1]["parent_frame_id"], BASE_FRAME);
+        assert_eq!(t[1]["child_frame_id"], SENSOR_FRAME);
+        assert_eq!(t[1]["translation"], json!({"x": 0.2, "y": 0.0, "z": 0.7}));
+        // turned half a turn about z
+        assert!((t[1]["rotation"]["z"].as_f64().unwrap().abs() - 1.0).abs() < 1e-12);
+        assert_eq!(transforms_schema()["title"], TF_SCHEMA);
     }
 
     #[test]
