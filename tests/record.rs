@@ -632,3 +632,46 @@ fn a_damaged_or_empty_recording_is_named() {
         "{stderr}"
     );
 }
+
+/// `--rotate-bytes`: a recording goes on in numbered files, each whole (its own summary), and
+/// together they hold every revolution once, in order.
+#[test]
+fn a_rotated_recording_is_whole_files_that_hold_every_revolution_once() {
+    let Some(python) = python_with_mcap("a_rotated_recording") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record-rotate");
+    let file = temp_mcap("rotate");
+    let parts: Vec<TempFile> = (1..10)
+        .map(|k| {
+            let name = file.0.file_stem().unwrap().to_string_lossy().to_string();
+            TempFile(file.0.with_file_name(format!("{name}-{k}.mcap")))
+        })
+        .collect();
+    // about a revolution a file: the capture's revolutions take about 0.9 MB each
+    let mut recorder = start_recorder(
+        &domain,
+        &file.0,
+        &["--topic", "lidar/points", "--rotate-bytes", "500000"],
+    );
+    let mut drv = driver(&domain, &["--set", "velodyne.replay_linger_s=1"]);
+    let _ = drv.wait(Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(300));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    let mut seqs = Vec::new();
+    let mut files = 0;
+    for f in std::iter::once(&file).chain(&parts) {
+        if !f.0.exists() {
+            break;
+        }
+        files += 1;
+        let got = read_mcap(&python, &f.0);
+        assert_eq!(got["summary"], true, "{} is whole", f.0.display());
+        seqs.extend(u64s(&got["topics"]["mimnav/lidar/points"]["seqs"]));
+    }
+    assert!(files >= 3, "{files} files");
+    assert_eq!(seqs, [0, 1, 2, 3, 4], "every revolution once, in order");
+}

@@ -51,6 +51,84 @@ pub struct RecordArgs {
     /// End the recording once the file holds this many bytes (the summary adds a little).
     #[arg(long, value_name = "N", default_value_t = 4 << 30)]
     max_bytes: u64,
+    /// Go on in a new file once the current one holds this many bytes: FILE, then FILE-1,
+    /// FILE-2, … before the extension (run.mcap, run-1.mcap, …), each a whole MCAP file with
+    /// its own summary. --max-bytes counts them all.
+    #[arg(long, value_name = "N")]
+    rotate_bytes: Option<u64>,
+}
+
+/// The `k`-th file of a rotated recording: `out` itself, then `out`'s stem with `-k`.
+fn rotated(out: &std::path::Path, k: u32) -> PathBuf {
+    if k == 0 {
+        return out.to_path_buf();
+    }
+    let stem = out
+        .file_stem()
+        .map_or_else(Default::default, |s| s.to_string_lossy());
+    let name = match out.extension() {
+        Some(e) => format!("{stem}-{k}.{}", e.to_string_lossy()),
+        None => format!("{stem}-{k}"),
+    };
+    out.with_file_name(name)
+}
+
+/// One open MCAP file: its writer, its channels' ids (in the order of the topics), the
+/// transforms' channel, and how far it is written.
+struct Open {
+    writer: mcap::Writer<Counted>,
+    ids: Vec<u16>,
+    tf: Option<u16>,
+    end: Arc<AtomicU64>,
+    path: PathBuf,
+}
+
+impl Open {
+    /// Creates `path` with a channel for each topic and, with odometry, the transforms'.
+    fn create(path: PathBuf, topics: &[Topic]) -> Result<Open> {
+        let file =
+            File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        let end = Arc::new(AtomicU64::new(0));
+        let counted = Counted {
+            file: BufWriter::with_capacity(1 << 16, file),
+            pos: 0,
+            end: end.clone(),
+        };
+        let mut writer = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Lz4))
+            .chunk_size(Some(CHUNK_BYTES))
+            .create(counted)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let mut ids = Vec::new();
+        for topic in topics {
+            let schema = serde_json::to_vec(&topic.schema())?;
+            let schema_id = writer.add_schema(topic.schema_name(), "jsonschema", &schema)?;
+            ids.push(writer.add_channel(schema_id, topic.name(), "json", &BTreeMap::new())?);
+        }
+        // the frames' transforms ride with odometry
+        let tf = if topics.contains(&Topic::Odom) {
+            let schema = serde_json::to_vec(&convert::transforms_schema())?;
+            let schema_id = writer.add_schema(convert::TF_SCHEMA, "jsonschema", &schema)?;
+            Some(writer.add_channel(schema_id, convert::TF_CHANNEL, "json", &BTreeMap::new())?)
+        } else {
+            None
+        };
+        Ok(Open {
+            writer,
+            ids,
+            tf,
+            end,
+            path,
+        })
+    }
+
+    /// Writes the summary and closes the file; its size.
+    fn finish(mut self) -> Result<u64> {
+        self.writer
+            .finish()
+            .with_context(|| format!("cannot finish {}", self.path.display()))?;
+        Ok(self.end.load(Ordering::Relaxed))
+    }
 }
 
 /// Uncompressed size at which a chunk is closed and written.
@@ -226,29 +304,16 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
     {
         bail!("--seconds must be positive: {s}");
     }
+    if args.rotate_bytes == Some(0) {
+        bail!("--rotate-bytes must be positive");
+    }
     let node = ipc::node(config, "mimnav-record")?;
     let mut channels = Vec::new();
-    let file =
-        File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let end = Arc::new(AtomicU64::new(0));
-    let counted = Counted {
-        file: BufWriter::with_capacity(1 << 16, file),
-        pos: 0,
-        end: end.clone(),
-    };
-    let mut writer = mcap::WriteOptions::new()
-        .compression(Some(mcap::Compression::Lz4))
-        .chunk_size(Some(CHUNK_BYTES))
-        .create(counted)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    for topic in topics {
-        let sub = Sub::open(&node, topic)?;
-        let schema = serde_json::to_vec(&topic.schema())?;
-        let schema_id = writer.add_schema(topic.schema_name(), "jsonschema", &schema)?;
-        let id = writer.add_channel(schema_id, topic.name(), "json", &BTreeMap::new())?;
+    let mut open = Open::create(args.out.clone(), &topics)?;
+    for (&topic, &id) in topics.iter().zip(&open.ids) {
         channels.push(Channel {
             topic,
-            sub,
+            sub: Sub::open(&node, topic)?,
             id,
             hop: Hop::new(),
             written: 0,
@@ -256,19 +321,14 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
             errors: 0,
         });
     }
-    // the frames' transforms ride with odometry
-    let tf_channel = if channels.iter().any(|c| c.topic == Topic::Odom) {
-        let schema = serde_json::to_vec(&convert::transforms_schema())?;
-        let schema_id = writer.add_schema(convert::TF_SCHEMA, "jsonschema", &schema)?;
-        Some(writer.add_channel(schema_id, convert::TF_CHANNEL, "json", &BTreeMap::new())?)
-    } else {
-        None
-    };
+    // the files finished before the open one: path and size
+    let mut done: Vec<(PathBuf, u64)> = Vec::new();
     let frames = Frames {
         mount: config.robot.mount,
         sensor_height_m: config.robot.sensor_height_m,
     };
     let mut tf_written = 0u64;
+    let open_tf = open.tf.is_some();
     // CLOCK_MONOTONIC → Unix ns
     let epoch_offset = ipc::realtime_ns() as i128 - ipc::monotonic_ns() as i128;
     let start = Instant::now();
@@ -311,44 +371,62 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
                     log_time,
                     publish_time: stamp.unwrap_or(log_time),
                 };
-                writer
+                open.writer
                     .write_to_known_channel(&header, &message)
-                    .with_context(|| format!("cannot write {}", args.out.display()))?;
+                    .with_context(|| format!("cannot write {}", open.path.display()))?;
                 ch.written += 1;
-                if let (Some(id), Some(tf)) = (tf_channel, tf) {
+                if let (Some(id), Some(tf)) = (open.tf, tf) {
                     let header = mcap::records::MessageHeader {
                         channel_id: id,
                         ..header
                     };
-                    writer
+                    open.writer
                         .write_to_known_channel(&header, &tf)
-                        .with_context(|| format!("cannot write {}", args.out.display()))?;
+                        .with_context(|| format!("cannot write {}", open.path.display()))?;
                     tf_written += 1;
                 }
             }
         }
-        if end.load(Ordering::Relaxed) >= args.max_bytes {
+        let written = open.end.load(Ordering::Relaxed);
+        if done.iter().map(|d| d.1).sum::<u64>() + written >= args.max_bytes {
             break End::MaxBytes;
+        }
+        if args.rotate_bytes.is_some_and(|r| written >= r) {
+            let next = Open::create(rotated(&args.out, done.len() as u32 + 1), &topics)?;
+            for (ch, &id) in channels.iter_mut().zip(&next.ids) {
+                ch.id = id;
+            }
+            let old = std::mem::replace(&mut open, next);
+            let path = old.path.clone();
+            let size = old.finish()?;
+            tracing::info!(
+                "{}: {size} bytes, going on in {}",
+                path.display(),
+                open.path.display()
+            );
+            done.push((path, size));
+            last_flush = Instant::now();
         }
         if until.is_some_and(|u| Instant::now() >= u) {
             break End::Seconds;
         }
         if last_flush.elapsed() >= FLUSH_EVERY {
-            writer.flush()?;
+            open.writer.flush()?;
             last_flush = Instant::now();
         }
         if !busy && !ipc::sleep(&node, IDLE) {
             break End::Signal;
         }
     };
-    writer
-        .finish()
-        .with_context(|| format!("cannot finish {}", args.out.display()))?;
-    drop(writer);
-    let bytes = std::fs::metadata(&args.out).map_or(0, |m| m.len());
+    let path = open.path.clone();
+    open.finish()?;
+    let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
+    for (p, size) in &done {
+        outln!("{}: {size} bytes", p.display())?;
+    }
     outln!(
         "{}: {} bytes, {:.1} s, ended by {}",
-        args.out.display(),
+        path.display(),
         bytes,
         start.elapsed().as_secs_f64(),
         match why {
@@ -367,7 +445,7 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
             ch.errors
         )?;
     }
-    if tf_channel.is_some() {
+    if open_tf {
         outln!(
             "{}: {tf_written} written (with odometry)",
             convert::TF_CHANNEL
@@ -379,6 +457,17 @@ pub fn run(config: &Config, args: &RecordArgs) -> Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotated_files_are_numbered_before_the_extension() {
+        let p = std::path::Path::new("/data/run.mcap");
+        assert_eq!(rotated(p, 0), p);
+        assert_eq!(rotated(p, 2), std::path::Path::new("/data/run-2.mcap"));
+        assert_eq!(
+            rotated(std::path::Path::new("run"), 1),
+            std::path::Path::new("run-1")
+        );
+    }
 
     #[test]
     fn topics_are_all_by_default_each_once_and_checked() {
