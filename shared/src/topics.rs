@@ -267,6 +267,9 @@ pub mod command_flags {
     /// (v < 0) for `planner.recovery_s`; with the `blocked` status it has stopped after
     /// `planner.recovery_max` tries without getting nearer the goal.
     pub const BACKING_OUT: u8 = 4;
+    /// The robot is going to look at suspected glass its route leads into: it drives beside the
+    /// pane's line so its beams meet the unseen stretch squarely (`planner.look_after_s`).
+    pub const LOOKING: u8 = 8;
 }
 
 /// A velocity command for the base (REP-103: v forward, ω counter-clockwise).

@@ -59,6 +59,11 @@ pub struct PlannerConfig {
     /// metres more, in proportion to the shortfall, so the route keeps the body where it can
     /// still turn (0: no preference; a round robot has none).
     pub route_swing_weight: f64,
+    /// Room beyond the footprint the route prefers to keep from obstacles for any robot, m:
+    /// where it exceeds a long body's room to turn it takes its place, so a round robot's
+    /// route, too, keeps off walls and glass where there is room (charged at
+    /// `route_swing_weight`). 0: only a long body's room to turn.
+    pub route_berth_m: f64,
     /// Suspected glass — a pane's line drawn on where the pane was not seen, which may be an
     /// opening never faced — does not close the route: a metre of route where the footprint
     /// would touch it costs this many metres more, so the route leads there only when no
@@ -89,6 +94,16 @@ pub struct PlannerConfig {
     /// Backing-out tries without the robot getting `0.5 m` nearer the goal, after which it stops
     /// with the `blocked` status.
     pub recovery_max: u32,
+    /// A robot whose route has led it no nearer the goal for this long, the route running into
+    /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past
+    /// the suspected stretch's end, so its beams meet the whole stretch squarely (issue 22,
+    /// item 3; [`crate::look`]), s (0: never).
+    pub look_after_s: f64,
+    /// How long one look lasts at most, s.
+    pub look_s: f64,
+    /// Looks without the robot getting `0.5 m` nearer the goal along its route, after which it
+    /// looks no more.
+    pub look_max: u32,
     /// A foliage verdict older than this is ignored, s.
     pub foliage_max_age_s: f64,
     /// A map older than this is stale: zero velocity, s.
@@ -118,6 +133,7 @@ impl Default for PlannerConfig {
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             route_swing_weight: 4.0,
+            route_berth_m: 0.0,
             route_suspect_weight: 10.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
@@ -127,6 +143,9 @@ impl Default for PlannerConfig {
             recovery_s: 2.0,
             recovery_mps: 0.15,
             recovery_max: 4,
+            look_after_s: 0.0,
+            look_s: 8.0,
+            look_max: 4,
             foliage_max_age_s: 0.3,
             map_max_age_s: 0.15,
             odom_max_age_s: 0.5,
@@ -184,6 +203,7 @@ impl PlannerConfig {
             0.0,
             100.0,
         );
+        r.check("planner.route_berth_m", self.route_berth_m, 0.0, 2.0);
         r.check(
             "planner.route_suspect_weight",
             self.route_suspect_weight,
@@ -199,6 +219,9 @@ impl PlannerConfig {
             10.0,
         );
         r.check("planner.recovery_after_s", self.recovery_after_s, 0.0, 60.0);
+        r.check("planner.look_after_s", self.look_after_s, 0.0, 60.0);
+        r.check("planner.look_s", self.look_s, 0.5, 60.0);
+        r.check("planner.look_max", f64::from(self.look_max), 0.0, 100.0);
         r.check("planner.recovery_s", self.recovery_s, 0.1, 60.0);
         r.check("planner.recovery_mps", self.recovery_mps, 0.01, 2.0);
         r.check(

@@ -8,6 +8,7 @@
 //! - [`clearance`]: the distance to the nearest solid or glass cell (a chamfer transform), which
 //!   the route search and the dynamic window's footprint test both use;
 //! - [`dwa`]: the dynamic window and the trajectory scores (eq. 12);
+//! - [`look`]: where to drive so that suspected glass the route leads into gets seen;
 //! - [`Planner`]: inflation, clearance, route and dynamic window in order, with their buffers;
 //! - [`pilot`]: the service's step around the planner (input freshness, the goal into the robot
 //!   frame, foliage fusion, the fail-safe), which the service, `mimnav eval` and the lock-step
@@ -19,6 +20,7 @@ pub mod config;
 pub mod dwa;
 pub mod guard;
 pub mod inflate;
+pub mod look;
 pub mod params;
 pub mod pilot;
 pub mod route;

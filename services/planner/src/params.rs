@@ -38,11 +38,13 @@ impl PlannerParams {
     }
 
     /// The room beyond the footprint a long body needs to turn in place: its enclosing radius
-    /// less its half width (0 for a round robot), m. The route prefers places with it
+    /// less its half width (0 for a round robot), or `planner.route_berth_m` if more, m. The route prefers places with it
     /// ([`crate::route::RouteParams::swing_m`]).
     pub fn swing_m(&self) -> f64 {
         let body = self.robot.body();
-        (body.enclosing_radius_m() - body.half_width_m()).max(0.0)
+        (body.enclosing_radius_m() - body.half_width_m())
+            .max(self.planner.route_berth_m)
+            .max(0.0)
     }
 
     /// The discs the dynamic window checks along every rollout: a cover of the body (one disc
@@ -108,6 +110,17 @@ impl PlannerParams {
     /// How long the planner creeps with no route before it stops (`planner.no_route_stop_s`), ns.
     pub fn no_route_stop_ns(&self) -> u64 {
         seconds_ns(self.planner.no_route_stop_s)
+    }
+
+    /// How long the route may lead no nearer the goal before the robot goes to look at
+    /// suspected glass (`planner.look_after_s`; 0: never), ns.
+    pub fn look_after_ns(&self) -> u64 {
+        seconds_ns(self.planner.look_after_s)
+    }
+
+    /// How long one look lasts at most (`planner.look_s`), ns.
+    pub fn look_ns(&self) -> u64 {
+        seconds_ns(self.planner.look_s)
     }
 
     /// How long the robot is held still before it backs out (`planner.recovery_after_s`), ns.

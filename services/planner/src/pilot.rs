@@ -135,6 +135,11 @@ impl Decision {
         } else {
             what
         };
+        let what = if driving && self.flags & command_flags::LOOKING != 0 {
+            what + " beside suspected glass, to see it"
+        } else {
+            what
+        };
         if self.flags & command_flags::FOLIAGE_ALARM != 0 {
             what + "; foliage alarm"
         } else {
@@ -177,6 +182,8 @@ pub struct Pilot {
     map_hop: Hop,
     /// Backing out: see [`BackOut`].
     back_out: BackOut,
+    /// Going to look at suspected glass: see [`Look`].
+    look: Look,
 }
 
 /// Below these speeds (m/s, rad/s) a command holds the robot (nearly) still: a long body that
@@ -197,6 +204,45 @@ struct BackOut {
     tries: u32,
     /// The distance to the goal then, m.
     progress_ref_m: f64,
+}
+
+/// How far ahead along its route the robot looks for suspected glass it leads into, m.
+const LOOK_WITHIN_M: f64 = 2.0;
+/// The radius within which the pane's line is fitted around where the route meets it, m.
+const LOOK_RADIUS_M: f64 = 1.5;
+/// How far past the suspected stretch's end a look drives, m.
+const LOOK_OVERSHOOT_M: f64 = 0.3;
+/// A look is over within this distance of its target, m.
+const LOOK_ARRIVED_M: f64 = 0.25;
+/// The farthest from the pane's line a look drives, m; the nearest is the footprint and this
+/// much more.
+const LOOK_FAR_M: f64 = 1.5;
+const LOOK_NEAR_EXTRA_M: f64 = 0.3;
+
+/// Going to look at suspected glass the route leads into ([`crate::look`]).
+#[derive(Debug, Clone, Copy)]
+struct Look {
+    /// The route's length to the goal when it last fell by [`PROGRESS_M`], m, and since when
+    /// (monotonic ns).
+    best_m: f64,
+    since: Option<u64>,
+    /// The look under way: its target in the odometry frame, and when it ends at the latest.
+    target: Option<(f64, f64)>,
+    until: u64,
+    /// Looks since the route last fell by [`PROGRESS_M`].
+    tries: u32,
+}
+
+impl Default for Look {
+    fn default() -> Self {
+        Look {
+            best_m: f64::INFINITY,
+            since: None,
+            target: None,
+            until: 0,
+            tries: 0,
+        }
+    }
 }
 
 impl Default for BackOut {
@@ -225,6 +271,7 @@ impl Pilot {
             no_route_since: None,
             map_hop: Hop::new(),
             back_out: BackOut::default(),
+            look: Look::default(),
         }
     }
 
@@ -278,6 +325,7 @@ impl Pilot {
         // a new goal may have a route: its own time to find one, its own tries to back out
         self.no_route_since = None;
         self.back_out = BackOut::default();
+        self.look = Look::default();
         Ok(())
     }
 
@@ -389,9 +437,15 @@ impl Pilot {
         if let Some(d) = self.backing_out(grid, (v0, omega0), (gx, gy), now, flags, header) {
             return d;
         }
+        if let Some(d) = self.looking(grid, &pose, (v0, omega0), now, flags, header) {
+            return d;
+        }
         let outcome = self.planner.plan(&self.classes, grid, v0, omega0, (gx, gy));
         if let Some(d) = self.held_still(&outcome, grid, (v0, omega0), (gx, gy), now, flags, header)
         {
+            return d;
+        }
+        if let Some(d) = self.start_look(grid, &pose, (v0, omega0), now, flags, header) {
             return d;
         }
         match outcome {
@@ -486,6 +540,107 @@ impl Pilot {
         b.tries += 1;
         b.until = Some(now.saturating_add(lasts));
         self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// While a look is under way: the step towards its target, or `None` once it is reached,
+    /// its time is up, or no step towards it is feasible (then the robot plans for its goal
+    /// again).
+    #[allow(clippy::too_many_arguments)]
+    fn looking(
+        &mut self,
+        grid: GridSpec,
+        pose: &mimnav_shared::pose::Pose2,
+        (v0, omega0): (f64, f64),
+        now: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        let target = self.look.target?;
+        let local = crate::guard::goal_in_robot_frame(pose, target.0, target.1);
+        let Some((tx, ty)) =
+            local.filter(|t| now < self.look.until && t.0.hypot(t.1) > LOOK_ARRIVED_M)
+        else {
+            self.look.target = None;
+            return None;
+        };
+        match self.planner.plan(&self.classes, grid, v0, omega0, (tx, ty)) {
+            DwaOutcome::Drive {
+                v, omega, routed, ..
+            } if v.is_finite() && omega.is_finite() && routed => Some(Decision::drive(
+                v,
+                omega,
+                flags | command_flags::LOOKING,
+                header,
+            )),
+            _ => {
+                self.look.target = None;
+                None
+            }
+        }
+    }
+
+    /// After a forward plan: when the route has led no nearer the goal for
+    /// `planner.look_after_s` and runs into suspected glass close ahead, the first step of a
+    /// look beside it ([`crate::look`]); `None` to send the plan as it is.
+    #[allow(clippy::too_many_arguments)]
+    fn start_look(
+        &mut self,
+        grid: GridSpec,
+        pose: &mimnav_shared::pose::Pose2,
+        v0_omega0: (f64, f64),
+        now: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        let after = self.params().look_after_ns();
+        if after == 0 {
+            return None;
+        }
+        let (max_tries, footprint, touch) = (
+            self.params().planner.look_max,
+            self.params().footprint_m(),
+            // the band of extra cost the route charges beside suspected glass reaches the
+            // footprint and half a coarse cell from it, measured from coarse cells' centres
+            self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m,
+        );
+        let route_m = f64::from(self.planner.route().value(0.0, 0.0));
+        let l = &mut self.look;
+        if route_m.is_finite() && route_m < l.best_m - PROGRESS_M {
+            (l.best_m, l.since, l.tries) = (route_m, Some(now), 0);
+            return None;
+        }
+        let since = *l.since.get_or_insert(now);
+        if now.saturating_sub(since) < after || l.tries >= max_tries {
+            return None;
+        }
+        let route = self.planner.route();
+        let at =
+            crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)?;
+        let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)?;
+        // first towards the stretch's end farther from the robot's own foot on the line, then
+        // back and forth
+        let foot = -(s.point.0 * s.dir.0 + s.point.1 * s.dir.1);
+        let first = if s.to_m - foot >= foot - s.from_m {
+            1.0
+        } else {
+            -1.0
+        };
+        let look_ns = self.params().look_ns();
+        let l = &mut self.look;
+        let sign = if l.tries % 2 == 0 { first } else { -first };
+        let (tx, ty) = crate::look::look_target(
+            &s,
+            sign,
+            footprint + LOOK_NEAR_EXTRA_M,
+            LOOK_FAR_M,
+            LOOK_OVERSHOOT_M,
+        );
+        use mimnav_shared::pose::Pose2Ext as _;
+        l.target = Some(pose.to_fixed(tx, ty));
+        l.until = now.saturating_add(look_ns);
+        l.tries += 1;
+        l.since = Some(now);
+        self.looking(grid, pose, v0_omega0, now, flags, header)
     }
 
     /// One step back, or `None` (and backing out ends) when none is feasible.

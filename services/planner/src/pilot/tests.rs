@@ -537,3 +537,58 @@ fn a_robot_held_still_backs_out_then_stops_blocked() {
         "{again:?}"
     );
 }
+
+/// Issue 22 item 3: a pane across the way, seen as glass but for a stretch never faced — a door
+/// or more glass. The route leads there; the robot, kept off it, stands before it. After
+/// `planner.look_after_s` without progress it drives beside the pane (sideways in the robot's
+/// frame, flag `LOOKING`) instead, until the look's time is up.
+#[test]
+fn a_robot_that_stands_before_suspected_glass_goes_to_look_at_it() {
+    let pane: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (x, y) = grid().center_of(i / grid().cells, i % grid().cells);
+            if (x - 1.05).abs() < 0.05 {
+                if (-0.4..0.6).contains(&y) {
+                    cell_class::SUSPECTED_GLASS
+                } else {
+                    cell_class::GLASS
+                }
+            } else {
+                cell_class::FREE
+            }
+        })
+        .collect();
+    let mut params = PlannerParams::default();
+    params.planner.look_after_s = 2.0;
+    let (after, lasts) = (2 * S, (params.planner.look_s * 1e9) as u64);
+    let t = 10 * S;
+    let mut p = driving(params.clone(), t);
+    let mut at = |dt: u64| {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        p.on_map(&header(dt / (100 * MS)), pane.iter().copied(), t + dt)
+    };
+    // the odometry never moves: no progress along the route
+    let first = at(0);
+    assert_eq!(first.flags & command_flags::LOOKING, 0, "{first:?}");
+    let not_yet = at(after - 100 * MS);
+    assert_eq!(not_yet.flags & command_flags::LOOKING, 0, "{not_yet:?}");
+    let look = at(after);
+    assert_ne!(look.flags & command_flags::LOOKING, 0, "{look:?}");
+    assert_eq!(look.status, command_status::DRIVING);
+    assert!(
+        look.describe().contains("beside suspected glass"),
+        "{}",
+        look.describe()
+    );
+    // it turns to drive along the pane (the target lies beside the robot, not ahead)
+    assert!(look.omega.abs() > 0.05, "{look:?}");
+    let still = at(after + lasts - 100 * MS);
+    assert_ne!(still.flags & command_flags::LOOKING, 0, "{still:?}");
+    // off by default
+    let mut off = driving(PlannerParams::default(), t);
+    for k in 0..40 {
+        off.odom(&odom(t + k * 100 * MS)).expect("good odometry");
+        let d = off.on_map(&header(k), pane.iter().copied(), t + k * 100 * MS);
+        assert_eq!(d.flags & command_flags::LOOKING, 0);
+    }
+}
