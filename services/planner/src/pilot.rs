@@ -627,7 +627,7 @@ impl Pilot {
         };
         let look_ns = self.params().look_ns();
         let l = &mut self.look;
-        let sign = if l.tries % 2 == 0 { first } else { -first };
+        let sign = if l.tries.is_multiple_of(2) { first } else { -first };
         let (tx, ty) = crate::look::look_target(
             &s,
             sign,
