@@ -1,0 +1,476 @@
+//! The bridge: the stack's samples in, Foxglove channels out.
+//!
+//! [`Bridge`] owns a Foxglove [`Context`] with one channel per Foxglove topic ([`CHANNELS`]) and
+//! decides, sample by sample, whether to send: a channel no client subscribed to costs nothing
+//! (no conversion), a channel over its rate limit is thinned, a sample the conversion refuses is
+//! counted as bad; each outcome has its counter ([`crate::counters`]). Sending never waits:
+//! the SDK hands each message to every subscribed client's own queue, dropping that client's
+//! oldest when it is full, so one slow client neither slows the bridge nor the other clients.
+//!
+//! The bridge sees no iceoryx2 and no socket ([`crate::pump`] receives, [`crate::server`]
+//! serves), so the bench and the unit tests drive it directly.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use foxglove::messages::{
+    FrameTransforms, Grid, PointCloud, PoseInFrame, PosesInFrame, SceneUpdate,
+};
+use foxglove::{Channel, ChannelBuilder, Context, Encode, RawChannel, Schema};
+use serde_json::json;
+
+use mimnav_config::ViewConfig;
+use mimnav_shared::pose::LidarMount;
+use mimnav_shared::topics::{
+    self, BaseState, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, PlanCell, Point,
+    PointsHeader, VelocityCommand,
+};
+
+use crate::convert::{self, BadSample};
+use crate::counters::{Counters, RateLimit};
+
+/// Foxglove topic of the revolution's points (`PointCloud`, frame `lidar`).
+pub const POINTS: &str = "/lidar/points";
+/// The intensity map's layers (`Grid`, one `float32` field a layer).
+pub const LAYERS: &str = "/map/layers";
+/// The plan map: classes and cost (`Grid`, `class` and `cost`, `uint8`).
+pub const PLAN: &str = "/map/plan";
+/// The glass memory (`Grid`, `glass`: 1 glass, 2 suspected).
+pub const GLASS: &str = "/map/glass";
+/// Transforms `odom → base_link → lidar` (`FrameTransforms`).
+pub const TF: &str = "/tf";
+/// The robot's pose (`PoseInFrame`, frame `odom`).
+pub const ODOM: &str = "/odom";
+/// The driven path (`PosesInFrame`, frame `odom`).
+pub const PATH: &str = "/path";
+/// The goal as a disc of its tolerance (`SceneUpdate`).
+pub const GOAL: &str = "/goal";
+/// The goal's fields (JSON `mimnav.Goal`).
+pub const GOAL_RAW: &str = "/goal/raw";
+/// Velocity commands and their status (JSON `mimnav.VelocityCommand`).
+pub const CMD_VEL: &str = "/cmd_vel";
+/// The foliage classifier's verdict (JSON `mimnav.FoliageAlarm`).
+pub const FOLIAGE_ALARM: &str = "/foliage/alarm";
+/// The classified scan (`PointCloud`, frame `lidar`, field `class`).
+pub const FOLIAGE_SCAN: &str = "/foliage/scan";
+/// The robot base's state (JSON `mimnav.BaseState`).
+pub const BASE_STATE: &str = "/base/state";
+/// Per-hop latency of each revolution (JSON `mimnav.Latency`).
+pub const LATENCY: &str = "/latency";
+/// The view's own counters (JSON `mimnav.ViewStats`).
+pub const STATS: &str = "/view/stats";
+
+/// Every channel the view advertises.
+pub const CHANNELS: [&str; 15] = [
+    POINTS,
+    LAYERS,
+    PLAN,
+    GLASS,
+    TF,
+    ODOM,
+    PATH,
+    GOAL,
+    GOAL_RAW,
+    CMD_VEL,
+    FOLIAGE_ALARM,
+    FOLIAGE_SCAN,
+    BASE_STATE,
+    LATENCY,
+    STATS,
+];
+
+/// A map the view received: its revolution and when each hop saw it.
+#[derive(Debug, Clone, Copy)]
+struct MapSeen {
+    source_seq: u64,
+    /// monotonic time the revolution's last packet was received by the driver
+    rx_mono_ns: u64,
+    /// the mapper's time for it
+    mapper_us: u32,
+    /// monotonic time the view received the map
+    view_ns: u64,
+}
+
+/// Maps remembered for the latency of their commands.
+const MAPS_REMEMBERED: usize = 32;
+
+/// Why the bridge could not be made.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot create the Foxglove channel {topic}: {detail}")]
+pub struct ChannelError {
+    topic: &'static str,
+    detail: String,
+}
+
+/// A channel of the SDK's well-known schemas, with its rate limit.
+struct Typed<T: Encode> {
+    name: &'static str,
+    ch: Channel<T>,
+    limit: RateLimit,
+}
+
+/// A JSON channel, with its rate limit.
+struct Json {
+    name: &'static str,
+    ch: Arc<RawChannel>,
+    limit: RateLimit,
+}
+
+/// What to do with a sample of a channel.
+enum Gate {
+    /// Convert it and send it.
+    Send,
+    /// Counted already: skip it.
+    Skip,
+}
+
+fn gate(
+    counters: &mut Counters,
+    name: &'static str,
+    watched: bool,
+    limit: &mut RateLimit,
+    now_ns: u64,
+) -> Gate {
+    let c = counters.channel(name);
+    if !watched {
+        c.unwatched += 1;
+        Gate::Skip
+    } else if !limit.allow(now_ns) {
+        c.thinned += 1;
+        Gate::Skip
+    } else {
+        Gate::Send
+    }
+}
+
+impl<T: Encode> Typed<T> {
+    fn new(ctx: &Arc<Context>, name: &'static str, hz: f64) -> Typed<T> {
+        Typed {
+            name,
+            ch: ChannelBuilder::new(name).context(ctx).build::<T>(),
+            limit: RateLimit::new(hz),
+        }
+    }
+
+    /// Converts with `make` and sends, if watched and within the rate limit.
+    fn offer(
+        &mut self,
+        counters: &mut Counters,
+        now_ns: u64,
+        make: impl FnOnce() -> Result<T, BadSample>,
+    ) -> Result<bool, BadSample> {
+        if let Gate::Skip = gate(
+            counters,
+            self.name,
+            self.ch.has_sinks(),
+            &mut self.limit,
+            now_ns,
+        ) {
+            return Ok(false);
+        }
+        match make() {
+            Ok(m) => {
+                self.ch.log(&m);
+                let c = counters.channel(self.name);
+                c.sent += 1;
+                c.bytes += m.encoded_len().unwrap_or(0) as u64;
+                Ok(true)
+            }
+            Err(e) => {
+                counters.channel(self.name).bad += 1;
+                Err(e)
+            }
+        }
+    }
+}
+
+impl Json {
+    fn new(
+        ctx: &Arc<Context>,
+        name: &'static str,
+        schema: serde_json::Value,
+        hz: f64,
+    ) -> Result<Json, ChannelError> {
+        let title = schema["title"]
+            .as_str()
+            .unwrap_or("mimnav.Json")
+            .to_string();
+        let data = serde_json::to_vec(&schema).unwrap_or_default();
+        let ch = ChannelBuilder::new(name)
+            .context(ctx)
+            .message_encoding("json")
+            .schema(Schema::new(title, "jsonschema", data))
+            .build_raw()
+            .map_err(|e| ChannelError {
+                topic: name,
+                detail: e.to_string(),
+            })?;
+        Ok(Json {
+            name,
+            ch,
+            limit: RateLimit::new(hz),
+        })
+    }
+
+    fn offer(&mut self, counters: &mut Counters, now_ns: u64, make: impl FnOnce() -> Vec<u8>) {
+        if let Gate::Skip = gate(
+            counters,
+            self.name,
+            self.ch.has_sinks(),
+            &mut self.limit,
+            now_ns,
+        ) {
+            return;
+        }
+        let m = make();
+        self.ch.log(&m);
+        let c = counters.channel(self.name);
+        c.sent += 1;
+        c.bytes += m.len() as u64;
+    }
+}
+
+/// The stack's samples in, Foxglove channels out; see the module doc.
+pub struct Bridge {
+    ctx: Arc<Context>,
+    points: Typed<PointCloud>,
+    layers: Typed<Grid>,
+    plan: Typed<Grid>,
+    glass: Typed<Grid>,
+    tf: Typed<FrameTransforms>,
+    odom: Typed<PoseInFrame>,
+    path_ch: Typed<PosesInFrame>,
+    goal: Typed<SceneUpdate>,
+    goal_raw: Json,
+    cmd_vel: Json,
+    foliage_alarm: Json,
+    foliage_scan: Typed<PointCloud>,
+    base_state: Json,
+    latency: Json,
+    stats: Json,
+    counters: Counters,
+    path: convert::Path,
+    mount: LidarMount,
+    sensor_height_m: f64,
+    last_goal: Option<Goal>,
+    slow_hz: f64,
+    /// the latest maps, for the latency of the commands planned from them
+    maps: VecDeque<MapSeen>,
+    foliage_us: Option<u32>,
+}
+
+impl std::fmt::Debug for Bridge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Bridge")
+            .field("counters", &self.counters)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Bridge {
+    /// The bridge's channels on a context of its own, with `view`'s rate limits; the robot's
+    /// lidar mount and sensor height place the `lidar` frame on `base_link`.
+    pub fn new(
+        view: &ViewConfig,
+        mount: LidarMount,
+        sensor_height_m: f64,
+    ) -> Result<Bridge, ChannelError> {
+        let ctx = Context::new();
+        let (p, g, q, s) = (view.points_hz, view.grids_hz, view.pose_hz, view.slow_hz);
+        Ok(Bridge {
+            points: Typed::new(&ctx, POINTS, p),
+            layers: Typed::new(&ctx, LAYERS, g),
+            plan: Typed::new(&ctx, PLAN, g),
+            glass: Typed::new(&ctx, GLASS, g),
+            tf: Typed::new(&ctx, TF, q),
+            odom: Typed::new(&ctx, ODOM, q),
+            path_ch: Typed::new(&ctx, PATH, s),
+            goal: Typed::new(&ctx, GOAL, s),
+            goal_raw: Json::new(&ctx, GOAL_RAW, convert::schemas::goal(), s)?,
+            cmd_vel: Json::new(&ctx, CMD_VEL, convert::schemas::cmd_vel(), 0.0)?,
+            foliage_alarm: Json::new(&ctx, FOLIAGE_ALARM, convert::schemas::foliage_alarm(), 0.0)?,
+            foliage_scan: Typed::new(&ctx, FOLIAGE_SCAN, p),
+            base_state: Json::new(&ctx, BASE_STATE, convert::schemas::base_state(), q)?,
+            latency: Json::new(&ctx, LATENCY, convert::schemas::latency(), 0.0)?,
+            stats: Json::new(&ctx, STATS, convert::schemas::stats(), s)?,
+            ctx,
+            counters: Counters::default(),
+            path: convert::Path::new(view.path_step_m, view.path_poses),
+            mount,
+            sensor_height_m,
+            last_goal: None,
+            slow_hz: view.slow_hz,
+            maps: VecDeque::new(),
+            foliage_us: None,
+        })
+    }
+
+    /// The Foxglove context the WebSocket server serves.
+    pub fn context(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+
+    /// The counters so far.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// The counters, for the receiving side to count what it received and missed.
+    pub fn counters_mut(&mut self) -> &mut Counters {
+        &mut self.counters
+    }
+
+    fn bad(&mut self, topic: &'static str, r: Result<bool, BadSample>) -> Result<(), BadSample> {
+        r.map(|_| ())
+            .inspect_err(|_| self.counters.topic(topic).bad += 1)
+    }
+
+    /// A revolution from `lidar/points`.
+    pub fn on_points(&mut self, h: &PointsHeader, pts: &[Point], now_ns: u64) {
+        let _ = self
+            .points
+            .offer(&mut self.counters, now_ns, || Ok(convert::points(h, pts)));
+    }
+
+    /// A map from `map/plan`: the plan grid, the glass memory and the revolution's latency.
+    pub fn on_plan(
+        &mut self,
+        h: &MapHeader,
+        cells: &[PlanCell],
+        now_ns: u64,
+    ) -> Result<(), BadSample> {
+        self.maps.push_back(MapSeen {
+            source_seq: h.source_seq,
+            rx_mono_ns: h.rx_mono_ns,
+            mapper_us: h.processing_us,
+            view_ns: now_ns,
+        });
+        if self.maps.len() > MAPS_REMEMBERED {
+            self.maps.pop_front();
+        }
+        let r = self
+            .plan
+            .offer(&mut self.counters, now_ns, || convert::plan(h, cells));
+        self.bad(topics::MAP_PLAN, r)?;
+        // the same cells, checked above
+        let _ = self.glass.offer(&mut self.counters, now_ns, || {
+            convert::glass(h, cells).map(|(g, _, _)| g)
+        });
+        Ok(())
+    }
+
+    /// A map from `map/layers`.
+    pub fn on_layers(
+        &mut self,
+        h: &MapHeader,
+        values: &[f32],
+        now_ns: u64,
+    ) -> Result<(), BadSample> {
+        let r = self
+            .layers
+            .offer(&mut self.counters, now_ns, || convert::layers(h, values));
+        self.bad(topics::MAP_LAYERS, r)
+    }
+
+    /// An odometry message: `/tf`, `/odom`, and the driven path.
+    pub fn on_odom(&mut self, o: &Odometry, now_ns: u64) -> Result<(), BadSample> {
+        if let Err(e) = self.path.add(o) {
+            self.counters.topic(topics::ODOM).bad += 1;
+            return Err(e);
+        }
+        // finite, checked by the path
+        let (mount, height) = (self.mount, self.sensor_height_m);
+        let _ = (self.tf).offer(&mut self.counters, now_ns, || {
+            convert::transforms(o, &mount, height)
+        });
+        let _ = (self.odom).offer(&mut self.counters, now_ns, || convert::odom_pose(o));
+        Ok(())
+    }
+
+    /// A goal: remembered, and sent at once (and again with every [`Bridge::tick`]).
+    pub fn on_goal(&mut self, g: &Goal, now_ns: u64) -> Result<(), BadSample> {
+        self.last_goal = Some(*g);
+        // a new goal goes at once, whatever was sent just before
+        self.goal.limit = RateLimit::new(self.slow_hz);
+        self.goal_raw.limit = RateLimit::new(self.slow_hz);
+        let r = self.send_goal(now_ns);
+        self.bad(topics::GOAL, r)
+    }
+
+    fn send_goal(&mut self, now_ns: u64) -> Result<bool, BadSample> {
+        let Some(g) = self.last_goal else {
+            return Ok(false);
+        };
+        let stamp = self.path_stamp();
+        self.goal_raw
+            .offer(&mut self.counters, now_ns, || convert::goal(&g));
+        self.goal.offer(&mut self.counters, now_ns, || {
+            convert::goal_scene(&g, stamp)
+        })
+    }
+
+    fn path_stamp(&self) -> u64 {
+        self.path.message().timestamp.map_or(0, |t| {
+            u64::from(t.sec()) * 1_000_000_000 + u64::from(t.nsec())
+        })
+    }
+
+    /// A velocity command, and the latency of its revolution hop by hop when the view saw
+    /// that revolution's map.
+    pub fn on_cmd_vel(&mut self, c: &VelocityCommand, now_ns: u64) {
+        let map = (self.maps.iter().rev())
+            .find(|m| m.source_seq == c.source_seq)
+            .copied();
+        let us = |ns: u64| ns as f64 / 1e3;
+        let rev_to_cmd = map.map(|m| us(c.stamp_mono_ns.saturating_sub(m.rx_mono_ns)));
+        self.cmd_vel.offer(&mut self.counters, now_ns, || {
+            convert::cmd_vel(c, rev_to_cmd)
+        });
+        let foliage_us = self.foliage_us;
+        if let Some(m) = map {
+            self.latency.offer(&mut self.counters, now_ns, || {
+                serde_json::to_vec(&json!({
+                    "source_seq": c.source_seq,
+                    "mapper_us": m.mapper_us,
+                    "rev_to_map_view_us": us(m.view_ns.saturating_sub(m.rx_mono_ns)),
+                    "rev_to_cmd_us": us(c.stamp_mono_ns.saturating_sub(m.rx_mono_ns)),
+                    "cmd_to_view_us": us(now_ns.saturating_sub(c.stamp_mono_ns)),
+                    "foliage_us": foliage_us,
+                }))
+                .unwrap_or_default()
+            });
+        }
+    }
+
+    /// A verdict of the foliage classifier: `/foliage/alarm` and `/foliage/scan`.
+    pub fn on_foliage(&mut self, h: &FoliageHeader, returns: &[FoliageReturn], now_ns: u64) {
+        self.foliage_us = Some(h.processing_us);
+        self.foliage_alarm
+            .offer(&mut self.counters, now_ns, || convert::foliage_alarm(h));
+        let _ = self.foliage_scan.offer(&mut self.counters, now_ns, || {
+            Ok(convert::foliage_scan(h, returns))
+        });
+    }
+
+    /// The base's state.
+    pub fn on_base_state(&mut self, b: &BaseState, now_ns: u64) {
+        self.base_state
+            .offer(&mut self.counters, now_ns, || convert::base_state(b));
+    }
+
+    /// The slow channels, at their rate: the driven path, the goal again (a client that
+    /// subscribed late sees it) and the counters, with `clients` connected.
+    pub fn tick(&mut self, now_ns: u64, uptime_s: f64, clients: usize) {
+        let path = &self.path;
+        if !path.is_empty() {
+            let _ = self
+                .path_ch
+                .offer(&mut self.counters, now_ns, || Ok(path.message()));
+        }
+        let _ = self.send_goal(now_ns);
+        let stats = self.counters.json(uptime_s, clients);
+        self.stats.offer(&mut self.counters, now_ns, || {
+            serde_json::to_vec(&stats).unwrap_or_default()
+        });
+    }
+}
