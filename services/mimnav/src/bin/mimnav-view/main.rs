@@ -29,6 +29,15 @@ impl ServiceCli for Args {
     fn service_args(&self) -> &mimnav_shared::cli::ServiceArgs {
         &self.service
     }
+
+    /// The view is never real-time and holds no CPU wake-up request, whatever `[latency]` gives
+    /// the control path: it must not compete with it.
+    fn overrides(&self) -> Vec<String> {
+        vec![
+            "latency.realtime_priority=0".into(),
+            "latency.cpu_wakeup_us=-1".into(),
+        ]
+    }
 }
 
 fn main() -> ExitCode {
