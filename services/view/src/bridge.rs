@@ -339,6 +339,10 @@ impl Bridge {
         cells: &[PlanCell],
         now_ns: u64,
     ) -> Result<(), BadSample> {
+        if let Err(e) = convert::check_map(h, cells.len(), 1) {
+            self.counters.topic(topics::MAP_PLAN).bad += 1;
+            return Err(e);
+        }
         self.maps.push_back(MapSeen {
             source_seq: h.source_seq,
             rx_mono_ns: h.rx_mono_ns,
@@ -366,6 +370,10 @@ impl Bridge {
         values: &[f32],
         now_ns: u64,
     ) -> Result<(), BadSample> {
+        if let Err(e) = convert::check_map(h, values.len(), h.layers) {
+            self.counters.topic(topics::MAP_LAYERS).bad += 1;
+            return Err(e);
+        }
         let r = self
             .layers
             .offer(&mut self.counters, now_ns, || convert::layers(h, values));
@@ -472,5 +480,87 @@ impl Bridge {
         self.stats.offer(&mut self.counters, now_ns, || {
             serde_json::to_vec(&stats).unwrap_or_default()
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The topic a Foxglove path names: `/cmd_vel.v` → `/cmd_vel`.
+    fn topic_of(path: &str) -> &str {
+        path.split(['.', '[']).next().unwrap_or(path)
+    }
+
+    fn strings<'a>(v: &'a serde_json::Value, out: &mut Vec<&'a str>) {
+        match v {
+            serde_json::Value::String(s) => out.push(s),
+            serde_json::Value::Array(a) => a.iter().for_each(|x| strings(x, out)),
+            serde_json::Value::Object(o) => {
+                for (k, x) in o {
+                    out.push(k);
+                    strings(x, out);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    #[test]
+    fn the_layout_shows_every_channel_and_names_no_other() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../docs/foxglove/mimnav-layout.json"
+        );
+        let text = std::fs::read_to_string(path).expect("docs/foxglove/mimnav-layout.json");
+        let layout: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        let mut all = Vec::new();
+        strings(&layout["configById"], &mut all);
+        let named: std::collections::BTreeSet<&str> = (all.into_iter())
+            .filter(|s| s.starts_with('/'))
+            .map(topic_of)
+            .collect();
+        for t in &named {
+            assert!(
+                CHANNELS.contains(t),
+                "the layout names {t}, which the view does not serve"
+            );
+        }
+        // /tf is used by the 3D panel without being named
+        for t in CHANNELS.iter().filter(|t| **t != TF) {
+            assert!(named.contains(t), "the layout does not show {t}");
+        }
+    }
+
+    #[test]
+    fn nothing_is_converted_for_nobody_and_every_sample_is_counted() {
+        let mut b = Bridge::new(&ViewConfig::default(), LidarMount::default(), 0.5).unwrap();
+        let h = MapHeader {
+            cells: 2,
+            cell_m: 0.1,
+            layers: 1,
+            ..Default::default()
+        };
+        b.on_plan(&h, &[PlanCell::default(); 4], 0).unwrap();
+        // a malformed map is refused before anyone could see it
+        let bad = MapHeader { cells: 3, ..h };
+        assert!(b.on_layers(&bad, &[0.0; 4], 0).is_err());
+        b.on_points(&PointsHeader::default(), &[Point::default(); 3], 0);
+        let o = Odometry {
+            x: f64::NAN,
+            ..Default::default()
+        };
+        assert!(b.on_odom(&o, 0).is_err());
+        let c = b.counters();
+        assert_eq!(c.channels[PLAN].unwatched, 1);
+        assert_eq!(c.channels[GLASS].unwatched, 1);
+        assert_eq!(c.channels[POINTS].unwatched, 1);
+        assert_eq!(c.channels[PLAN].sent + c.channels[POINTS].sent, 0);
+        assert_eq!(c.topics[topics::ODOM].bad, 1);
+        assert_eq!(c.topics[topics::MAP_LAYERS].bad, 1);
+        assert!(
+            !c.channels.contains_key(LAYERS),
+            "the bad map never reached a channel"
+        );
     }
 }

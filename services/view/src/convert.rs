@@ -171,6 +171,14 @@ pub fn foliage_scan(h: &FoliageHeader, returns: &[FoliageReturn]) -> PointCloud 
     }
 }
 
+/// Checks a map before anything is made of it: its payload holds `cells² × per_cell` values
+/// (and is not empty) and its pose is finite. Cheap (no cell is read), so the bridge checks
+/// every map, watched or not.
+pub fn check_map(h: &MapHeader, len: usize, per_cell: u32) -> Result<(), BadSample> {
+    check_grid(len, h.cells, per_cell)?;
+    finite_pose(h.x, h.y, h.yaw)
+}
+
 /// Checks that a grid's payload holds `cells² × layers` values (and is not empty).
 fn check_grid(len: usize, cells: u32, layers: u32) -> Result<(), BadSample> {
     let want = (cells as usize)
