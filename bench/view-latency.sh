@@ -38,7 +38,8 @@ for i in $(seq 1 "$runs"); do
       # the client connects once the view serves (within a second of the start), and reads
       # until the demo ends
       for _ in $(seq 1 200); do
-        python3 -c "import socket; socket.create_connection(('127.0.0.1', $port), 0.2)" 2>/dev/null && break
+        # listening yet? (without connecting, which the server would log as a failed handshake)
+        [ -n "$(ss -ltnH "sport = :$port")" ] && break
         sleep 0.05
       done
       "$py" tests/foxglove_client.py --url "ws://127.0.0.1:$port" "${targs[@]}" \
