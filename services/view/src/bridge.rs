@@ -563,4 +563,121 @@ mod tests {
             "the bad map never reached a channel"
         );
     }
+
+    /// A sink subscribed to every channel that keeps what it was given.
+    struct Recorder {
+        id: foxglove::SinkId,
+        got: std::sync::Mutex<Vec<(String, Vec<u8>)>>,
+    }
+
+    impl foxglove::Sink for Recorder {
+        fn id(&self) -> foxglove::SinkId {
+            self.id
+        }
+
+        fn log(
+            &self,
+            channel: &RawChannel,
+            msg: &[u8],
+            _: &foxglove::Metadata,
+        ) -> Result<(), foxglove::FoxgloveError> {
+            if let Ok(mut g) = self.got.lock() {
+                g.push((channel.topic().to_string(), msg.to_vec()));
+            }
+            Ok(())
+        }
+    }
+
+    fn watched(view: &ViewConfig) -> (Bridge, Arc<Recorder>) {
+        let b = Bridge::new(view, LidarMount::default(), 0.5).unwrap();
+        let r = Arc::new(Recorder {
+            id: foxglove::SinkId::next(),
+            got: Default::default(),
+        });
+        b.context().add_sink(r.clone());
+        (b, r)
+    }
+
+    fn messages(r: &Recorder, topic: &str) -> Vec<Vec<u8>> {
+        let g = r.got.lock().unwrap();
+        (g.iter().filter(|(t, _)| t == topic))
+            .map(|(_, m)| m.clone())
+            .collect()
+    }
+
+    #[test]
+    fn a_watched_channel_is_thinned_to_its_rate_and_counted() {
+        let view = ViewConfig {
+            points_hz: 10.0,
+            ..Default::default()
+        };
+        let (mut b, r) = watched(&view);
+        let pts = [Point::default(); 5];
+        // 50 Hz for 180 ms: at 0 and 100 ms through a 10 Hz limit
+        for i in 0..10u64 {
+            b.on_points(&PointsHeader::default(), &pts, i * 20_000_000);
+        }
+        let c = b.counters().channels[POINTS];
+        assert_eq!((c.sent, c.thinned, c.unwatched), (2, 8, 0));
+        assert_eq!(messages(&r, POINTS).len(), 2);
+        assert!(c.bytes >= 2 * 5 * 16, "{c:?}");
+    }
+
+    #[test]
+    fn a_goal_goes_at_once_and_again_for_late_clients() {
+        let (mut b, r) = watched(&ViewConfig::default());
+        let g = Goal {
+            seq: 3,
+            x: 1.0,
+            y: 2.0,
+            tolerance_m: 0.3,
+            ..Default::default()
+        };
+        b.on_goal(&g, 1).unwrap();
+        assert_eq!(messages(&r, GOAL).len(), 1);
+        let raw: serde_json::Value = serde_json::from_slice(&messages(&r, GOAL_RAW)[0]).unwrap();
+        assert_eq!(raw["x"], 1.0);
+        // the slow rate (2 Hz): not again within 0.5 s, again after it
+        b.tick(100_000_000, 0.1, 1);
+        assert_eq!(messages(&r, GOAL).len(), 1);
+        b.tick(600_000_000, 0.6, 1);
+        assert_eq!(messages(&r, GOAL).len(), 2);
+        let stats: serde_json::Value = serde_json::from_slice(&messages(&r, STATS)[0]).unwrap();
+        assert_eq!(stats["clients"], 1);
+    }
+
+    #[test]
+    fn a_command_carries_its_revolutions_latency_hop_by_hop() {
+        let (mut b, r) = watched(&ViewConfig::default());
+        let h = MapHeader {
+            cells: 1,
+            cell_m: 0.1,
+            source_seq: 7,
+            rx_mono_ns: 1_000_000,
+            processing_us: 400,
+            ..Default::default()
+        };
+        b.on_plan(&h, &[PlanCell::default()], 1_500_000).unwrap();
+        let c = VelocityCommand {
+            source_seq: 7,
+            stamp_mono_ns: 2_200_000,
+            ..Default::default()
+        };
+        b.on_cmd_vel(&c, 2_300_000);
+        let l: serde_json::Value = serde_json::from_slice(&messages(&r, LATENCY)[0]).unwrap();
+        assert_eq!(l["rev_to_cmd_us"], 1200.0);
+        assert_eq!(l["rev_to_map_view_us"], 500.0);
+        assert_eq!(l["cmd_to_view_us"], 100.0);
+        assert_eq!(l["mapper_us"], 400);
+        let cmd: serde_json::Value = serde_json::from_slice(&messages(&r, CMD_VEL)[0]).unwrap();
+        assert_eq!(cmd["rev_to_cmd_us"], 1200.0);
+        // a command whose map the view never saw: no latency, the command still goes
+        let other = VelocityCommand {
+            source_seq: 99,
+            ..c
+        };
+        b.on_cmd_vel(&other, 2_400_000);
+        assert_eq!(messages(&r, LATENCY).len(), 1);
+        assert_eq!(messages(&r, CMD_VEL).len(), 2);
+    }
 }
