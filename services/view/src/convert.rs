@@ -671,6 +671,10 @@ pub mod schemas {
         json!({"title": "mimnav.ViewStats", "type": "object", "properties": {
             "uptime_s": {"type": "number"},
             "clients": {"type": "integer"},
+            "missed": {"type": "integer"},
+            "thinned": {"type": "integer"},
+            "sent": {"type": "integer"},
+            "bad": {"type": "integer"},
             "topics": {"type": "object"},
             "channels": {"type": "object"}}})
     }

@@ -102,7 +102,10 @@ impl Counters {
                 ((*k).to_string(), v)
             })
             .collect();
-        json!({"uptime_s": uptime_s, "clients": clients, "topics": topics, "channels": channels})
+        // the totals at the top, for plots (Foxglove's message paths reach them simply)
+        json!({"uptime_s": uptime_s, "clients": clients, "missed": self.missed(),
+               "thinned": self.thinned(), "sent": self.sent(), "bad": self.bad(),
+               "topics": topics, "channels": channels})
     }
 
     /// One line for the log: totals and the topics that missed samples.
@@ -188,7 +191,10 @@ mod tests {
         c.channel("/map/plan").thinned += 4;
         assert_eq!((c.missed(), c.bad(), c.sent(), c.thinned()), (2, 1, 3, 4));
         let j = c.json(1.5, 2);
-        assert_eq!(j["clients"], 2);
+        assert_eq!(
+            (j["clients"].clone(), j["missed"].clone()),
+            (json!(2), json!(2))
+        );
         assert_eq!(j["topics"]["mimnav/lidar/points"]["missed"], 2);
         assert_eq!(j["channels"]["/map/plan"]["thinned"], 4);
         assert!(
