@@ -107,15 +107,26 @@ def main():
     ap.add_argument("--count", type=int, default=5)
     ap.add_argument("--seconds", type=float, default=30.0)
     ap.add_argument("--stall", action="store_true")
+    ap.add_argument("--rcvbuf", type=int, default=0,
+                    help="the socket's receive buffer, bytes (small: a stalled client fills up fast)")
     ap.add_argument("--subprotocol", action="append", default=[],
                     help="offer only these (default: foxglove.sdk.v1, foxglove.websocket.v1)")
     a = ap.parse_args()
 
     # max_queue=1 in --stall: the library stops reading the socket once one frame waits
     offered = a.subprotocol or SUBPROTOCOLS
+    sock = None
+    if a.rcvbuf:
+        import socket
+        from urllib.parse import urlparse
+        u = urlparse(a.url)
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, a.rcvbuf)
+        sock.connect((u.hostname, u.port))
     try:
         ws = connect(
             a.url,
+            sock=sock,
             subprotocols=offered,
             max_size=None,
             max_queue=1 if a.stall else 64,

@@ -150,7 +150,7 @@ fn a_foxglove_client_receives_the_points_and_the_map_the_stack_published() {
     let points = ipc::points_subscriber(&node).expect("lidar/points");
     let plan = ipc::plan_subscriber(&node).expect("map/plan");
     let _mapper = mapper(&domain);
-    let topics = ["/lidar/points", "/map/plan", "/tf", "/view/stats"];
+    let topics = ["/lidar/points", "/map/plan", "/view/stats"];
     let mut args = vec!["--count", "5", "--seconds", "40"];
     for t in &topics {
         args.extend(["--topic", t]);
@@ -279,8 +279,11 @@ fn a_foxglove_client_receives_the_points_and_the_map_the_stack_published() {
             .collect();
         assert_eq!(g["head"], head, "transposed into rows along x");
     }
-    // the counters: every revolution received, none missed
-    let stats = got
+    // the counters, asked by another client once the replay is over: every revolution
+    // received, none missed
+    let (py2, rx2) = client(&python, port, &["--count", "1", "--topic", "/view/stats"]);
+    let later = finish(py2, &rx2, Duration::from_secs(20));
+    let stats = later
         .iter()
         .rfind(|v| v["topic"] == "/view/stats")
         .expect("view stats")["json"]
@@ -326,7 +329,7 @@ fn a_client_that_never_reads_stalls_neither_the_view_nor_the_other_client() {
     };
     let domain = PrivateDomain::new("e2e-view-stall");
     let port = free_tcp_port();
-    // every revolution and map, and a short queue per client: the stalled one fills it fast
+    // every revolution, a short queue per client and the counters at 5 Hz (a short test)
     let (mut view, log) = start_view(
         &domain,
         port,
@@ -334,24 +337,21 @@ fn a_client_that_never_reads_stalls_neither_the_view_nor_the_other_client() {
             "--set",
             "view.points_hz=0",
             "--set",
-            "view.grids_hz=0",
-            "--set",
             "view.client_backlog=8",
+            "--set",
+            "view.slow_hz=5",
         ],
     );
-    let _mapper = mapper(&domain);
     let _drv = driver(&domain, &["--set", "velodyne.replay_loop=true"]);
-    // subscribes to the heavy channels (about 6 MB/s) and never reads again
+    // subscribes to the points (about 4.5 MB/s) with a 4 KiB socket buffer and never reads again
     let stall_args = [
         "--stall",
         "--seconds",
-        "25",
+        "15",
+        "--rcvbuf",
+        "4096",
         "--topic",
         "/lidar/points",
-        "--topic",
-        "/map/layers",
-        "--topic",
-        "/map/plan",
     ];
     let (stalled, stalled_rx) = client(&python, port, &stall_args);
     let mut seen = Vec::new();
@@ -364,13 +364,13 @@ fn a_client_that_never_reads_stalls_neither_the_view_nor_the_other_client() {
         ),
         "the stalled client subscribes: {seen:?}"
     );
-    // long enough for its socket buffers and its queue in the view to fill
-    std::thread::sleep(Duration::from_secs(6));
+    // long enough for its socket buffers and its queue in the view (8 revolutions) to fill
+    std::thread::sleep(Duration::from_secs(2));
     let args = [
         "--count",
-        "30",
+        "20",
         "--seconds",
-        "15",
+        "12",
         "--topic",
         "/lidar/points",
         "--topic",
@@ -406,7 +406,7 @@ fn a_client_that_never_reads_stalls_neither_the_view_nor_the_other_client() {
         .unwrap_or(u64::MAX);
     // the view kept up with the driver while one client read nothing (a view held up by that
     // client would miss nearly every revolution; a loaded machine may make it miss a few)
-    assert!(received >= 60, "{stats}");
+    assert!(received >= 40, "{stats}");
     assert!(
         missed.saturating_mul(4) <= received,
         "missed {missed} of {received}: {stats}"
