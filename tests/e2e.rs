@@ -42,5 +42,7 @@ mod topics_doc;
 mod util;
 /// The VLP-16 driver as a process: replay, UDP, bad input, config errors, SIGTERM.
 mod velodyne;
+/// `mimnav-view`: the Foxglove live view, watched by PyPI's `websockets` (issue 25).
+mod view;
 /// Generated worlds (issue 22): determinism, well-formedness, reachability, eval per family.
 mod worlds;

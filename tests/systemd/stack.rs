@@ -72,6 +72,33 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         let unit = user_unit(&system, s, &exec, &run_dir, &log, drop_protect_home);
         std::fs::write(units.join(format!("mimnav-{s}.service")), unit).expect("unit");
     }
+    // the live view (issue 25): asked for SCHED_FIFO like the mapper, which it must refuse
+    let view_port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port();
+    let view_system =
+        std::fs::read_to_string(inst.join("usr/lib/systemd/system/mimnav-view.service"))
+            .expect("installed view unit");
+    let view_exec = format!(
+        "{}/usr/bin/mimnav-view --config {}/etc/mimnav/mimnav.toml \
+         '--set=iceoryx2.global.root-path=\"{}\"' '--set=iceoryx2.global.prefix=\"{}\"' \
+         --set=view.port={view_port} --set=latency.realtime_priority=5",
+        inst.display(),
+        inst.display(),
+        domain.root_str(),
+        domain.prefix
+    );
+    let view_log = t.0.join("logs/view.log");
+    let view_unit = user_unit(
+        &view_system,
+        "view",
+        &view_exec,
+        &run_dir,
+        &view_log,
+        drop_protect_home,
+    );
+    std::fs::write(units.join("mimnav-view.service"), view_unit).expect("view unit");
     std::fs::copy(
         inst.join("usr/lib/systemd/system/mimnav.target"),
         units.join("mimnav.target"),
@@ -190,6 +217,34 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         taps.seen,
         logs()
     );
+    // the live view: READY=1 once it serves, its STATUS= names the address, never real-time,
+    // niced below the control path, listening
+    let o = manager.systemctl(&["start", "mimnav-view.service"]);
+    let view_logs = || std::fs::read_to_string(&view_log).unwrap_or_default();
+    assert!(o.status.success(), "{}\n{}", text(&o), view_logs());
+    let u = "mimnav-view.service";
+    assert_eq!(manager.prop(u, "ActiveState"), "active", "{}", view_logs());
+    let status = manager.prop(u, "StatusText");
+    assert!(
+        status.contains(&format!("serving on ws://127.0.0.1:{view_port}")),
+        "{status}"
+    );
+    let pid = manager.main_pid(u);
+    // SAFETY: sched_getscheduler and getpriority have no preconditions; a wrong pid gives -1
+    let policy = unsafe { libc::sched_getscheduler(pid) };
+    assert_eq!(
+        policy & !libc::SCHED_RESET_ON_FORK,
+        libc::SCHED_OTHER,
+        "{u}: {policy}"
+    );
+    let nice = unsafe { libc::getpriority(libc::PRIO_PROCESS, pid as libc::id_t) };
+    assert_eq!(nice, 10, "{u}: Nice=10");
+    assert!(
+        std::net::TcpStream::connect(("127.0.0.1", view_port)).is_ok(),
+        "{u} listens on {view_port}"
+    );
+    writeln!(report, "{u}: status \"{status}\"").unwrap();
+
     // the planner drives (or is blocked), it is not stale: there are a map, odometry and a goal
     let fresh = |c: &VelocityCommand| c.status != command_status::STALE_INPUT;
     assert!(

@@ -77,6 +77,11 @@ pub struct DemoArgs {
     /// stack uses; the demo prints its error against the simulator's true position).
     #[arg(long, value_enum, default_value = "ideal")]
     base: Base,
+    /// Also run the Foxglove live view (`mimnav-view`) on 127.0.0.1:PORT, so a viewer can watch
+    /// the demo (ws://127.0.0.1:PORT) and the latency can be measured with one attached
+    /// (`bench/view-latency.sh`).
+    #[arg(long, value_name = "PORT")]
+    view: Option<u16>,
 }
 
 /// `mimnav demo --base`.
@@ -161,6 +166,9 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         config.robot.radius_m
     );
     let mut children = stack.start_services()?;
+    if let Some(port) = args.view {
+        stack.start_view(&mut children, port)?;
+    }
     if !children.wait_for_planner(&node, &commands)? {
         // nothing moves yet: dropping the children stops them
         return Ok(ExitCode::from(130));

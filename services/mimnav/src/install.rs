@@ -15,12 +15,13 @@ use std::process::{Command, ExitCode};
 use anyhow::{Context, Result, bail};
 
 /// The services' binaries, which the units start from `/usr/bin`, and the front end.
-pub const BINARIES: [&str; 6] = [
+pub const BINARIES: [&str; 7] = [
     "mimnav-velodyne",
     "mimnav-mapper",
     "mimnav-foliage",
     "mimnav-planner",
     "mimnav-kobuki",
+    "mimnav-view",
     "mimnav",
 ];
 
@@ -29,7 +30,7 @@ pub const BINARIES: [&str; 6] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 9] = [
+pub const SYSTEMD_FILES: [(&str, &str); 10] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -53,6 +54,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 9] = [
     (
         "usr/lib/systemd/system/mimnav-spot.service",
         include_str!("../../../systemd/system/mimnav-spot.service"),
+    ),
+    (
+        "usr/lib/systemd/system/mimnav-view.service",
+        include_str!("../../../systemd/system/mimnav-view.service"),
     ),
     (
         "usr/lib/systemd/system/mimnav.target",

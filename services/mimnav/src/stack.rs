@@ -160,6 +160,21 @@ impl Stack {
         Ok(children)
     }
 
+    /// Starts the Foxglove live view on 127.0.0.1:`port` (it takes no real-time priority,
+    /// whatever the stack's). Call from the main thread.
+    pub fn start_view(&self, children: &mut Children, port: u16) -> Result<()> {
+        let mut all = self.child_args.clone();
+        all.extend([
+            "--set".into(),
+            format!("view.bind={}", toml_quote("127.0.0.1")),
+            "--set".into(),
+            format!("view.port={port}"),
+        ]);
+        let s = Service::start_with(&service_binary("mimnav-view")?, &all, OWN_GROUP)?;
+        children.others.push(s);
+        Ok(())
+    }
+
     /// Starts the simulator with `args` after the stack's own (its stdout piped: read it with
     /// [`Children::stop_sim`]). Call from the main thread.
     pub fn start_sim(&self, children: &mut Children, args: &[String]) -> Result<()> {
