@@ -303,16 +303,18 @@ class PlanCell(_Named):
 
 
 class Goal(_Named):
-    """A goal in the odometry frame (``goal``)."""
+    """A goal in the odometry frame (``goal``), or with ``flags`` = ``GOAL_STOP`` a stop request."""
 
-    TYPE_NAME = "mimnav/Goal/v1"
-    LAYOUT = (40, 8)
+    TYPE_NAME = "mimnav/Goal/v2"
+    LAYOUT = (48, 8)
     _fields_ = [
         ("seq", u64),
         ("stamp_mono_ns", u64),
         ("x", f64),
         ("y", f64),
         ("tolerance_m", f64),
+        ("flags", u8),
+        ("reserved", u8 * 7),
     ]
 
 
