@@ -29,6 +29,7 @@
 //! | `[foliage]` | [`mimnav_foliage::FoliageParams`] |
 //! | `[kobuki]` | [`mimnav_kobuki::config::KobukiConfig`] |
 //! | `[spot]` | [`SpotConfig`] |
+//! | `[zenoh]` | [`ZenohConfig`] |
 //! | `[robot]`, `[map]`, `[log]`, `[latency]`, `[iceoryx2]` | [`Common`] |
 //!
 //! [`Config`] checks the file whole: unknown keys, wrong types and out-of-range values are errors
@@ -45,6 +46,7 @@
 #![warn(missing_docs)]
 
 mod spot;
+mod zenoh;
 
 use std::ops::{Deref, DerefMut};
 use std::path::Path;
@@ -69,6 +71,7 @@ use mimnav_sim::SimSettings;
 use mimnav_sim::config::SimConfig;
 use mimnav_velodyne::config::VelodyneConfig;
 pub use spot::SpotConfig;
+pub use zenoh::{BRIDGE_TOPICS, ZenohConfig, is_key_chunk};
 
 /// The whole stack's configuration: the shared sections ([`Common`], reached through `Deref`:
 /// `config.robot`, `config.map`, …) and every library's own.
@@ -90,6 +93,8 @@ pub struct Config {
     pub kobuki: KobukiConfig,
     /// `[spot]`: the Spot bridge.
     pub spot: SpotConfig,
+    /// `[zenoh]`: the Zenoh bridge.
+    pub zenoh: ZenohConfig,
 }
 
 impl Deref for Config {
@@ -126,6 +131,7 @@ struct FileConfig {
     foliage: FoliageParams,
     kobuki: KobukiConfig,
     spot: SpotConfig,
+    zenoh: ZenohConfig,
     latency: LatencyConfig,
 }
 
@@ -200,6 +206,7 @@ impl Config {
             foliage: file.foliage,
             kobuki: file.kobuki,
             spot: file.spot,
+            zenoh: file.zenoh,
         };
         config
             .validate()
@@ -219,6 +226,7 @@ impl Config {
         r.merge(self.foliage.validate());
         r.merge(self.kobuki.validate());
         r.merge(self.spot.validate());
+        r.merge(self.zenoh.validate());
         // a map comes once per revolution: a shorter limit would call every map stale
         let revolution_s = 60.0 / self.velodyne.rpm;
         r.require(
