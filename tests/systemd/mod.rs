@@ -23,7 +23,9 @@ use crate::util::{bin_dir, root};
 
 const SERVICES: [&str; 4] = ["velodyne", "mapper", "foliage", "planner"];
 /// Every unit `mimnav install` installs: the stack's services and the bases' (enabled per robot).
-const UNITS: [&str; 6] = ["velodyne", "mapper", "foliage", "planner", "kobuki", "spot"];
+const UNITS: [&str; 7] = [
+    "velodyne", "mapper", "foliage", "planner", "kobuki", "spot", "zenoh",
+];
 
 /// A temporary folder removed when dropped.
 struct TempDir(PathBuf);

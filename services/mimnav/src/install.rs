@@ -15,12 +15,13 @@ use std::process::{Command, ExitCode};
 use anyhow::{Context, Result, bail};
 
 /// The services' binaries, which the units start from `/usr/bin`, and the front end.
-pub const BINARIES: [&str; 6] = [
+pub const BINARIES: [&str; 7] = [
     "mimnav-velodyne",
     "mimnav-mapper",
     "mimnav-foliage",
     "mimnav-planner",
     "mimnav-kobuki",
+    "mimnav-zenoh",
     "mimnav",
 ];
 
@@ -29,7 +30,7 @@ pub const BINARIES: [&str; 6] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 9] = [
+pub const SYSTEMD_FILES: [(&str, &str); 10] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -53,6 +54,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 9] = [
     (
         "usr/lib/systemd/system/mimnav-spot.service",
         include_str!("../../../systemd/system/mimnav-spot.service"),
+    ),
+    (
+        "usr/lib/systemd/system/mimnav-zenoh.service",
+        include_str!("../../../systemd/system/mimnav-zenoh.service"),
     ),
     (
         "usr/lib/systemd/system/mimnav.target",
@@ -224,6 +229,10 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
         "the robot's base, part of mimnav.target once enabled:  systemctl enable mimnav-kobuki.service \
          (Turtlebot 2; docs/deployment.md has its udev rule) or mimnav-spot.service (Spot: install \
          with --spot, credentials in /etc/mimnav/spot-credentials, mode 0600)"
+    )?;
+    outln!(
+        "the Zenoh bridge (topics for other hosts, remote goals; docs/zenoh.md): set [zenoh] \
+         enabled = true in the config, then  systemctl enable mimnav-zenoh.service"
     )?;
     outln!(
         "start the stack now and at every boot:  systemctl enable --now mimnav.target\n\
