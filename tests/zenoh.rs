@@ -3,7 +3,8 @@
 //! joined by a veth pair. B receives the points and the map plan and decodes them with the
 //! documented layouts, sends a goal that must reach the planner and a stop after which
 //! `cmd_vel` must stay zero. A second test: with `zenoh.accept_goals = false` nothing B sends
-//! reaches `mimnav/goal`.
+//! reaches `mimnav/goal`. A third: docs/zenoh-robot.json5's mutual TLS and access control let
+//! only the operator's certificate steer.
 //!
 //! Needs root (namespaces) and a Python with `eclipse-zenoh` (`MIMNAV_ZENOH_PYTHON`, which
 //! `.ci/run` sets, else `target/zenoh-venv`): a SKIP line otherwise. The namespaces' names are
@@ -177,7 +178,23 @@ struct Peer {
 
 impl Peer {
     fn start(python: &Path, ns: &str, endpoint: &str, robot: &str, topics: &[&str]) -> Peer {
+        Peer::start_tls(python, ns, endpoint, robot, topics, None)
+    }
+
+    /// With `tls` = (folder, name): mutual TLS with the folder's `ca.pem`, `NAME.pem` and
+    /// `NAME-key.pem`.
+    fn start_tls(
+        python: &Path,
+        ns: &str,
+        endpoint: &str,
+        robot: &str,
+        topics: &[&str],
+        tls: Option<(&Path, &str)>,
+    ) -> Peer {
         let mut cmd = NetnsPair::exec(ns, python);
+        if let Some((dir, name)) = tls {
+            cmd.env("ZENOH_PEER_TLS", format!("{} {name}", dir.display()));
+        }
         cmd.env("PYTHONPATH", root().join("clients/python"))
             .env("PYTHONDONTWRITEBYTECODE", "1")
             .arg("-u")
@@ -532,5 +549,220 @@ fn issue25_3_the_bridge_is_off_unless_enabled() {
     assert!(
         !domain.root.join("nodes").exists(),
         "no iceoryx2 node was made"
+    );
+}
+
+/// A temporary folder removed when dropped.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A CA and certificates signed by it in `dir`: `robot` (for `robot_ip`) and each of `clients`
+/// (their common names), as `NAME.pem` and `NAME-key.pem`. None when openssl fails.
+fn certificates(dir: &Path, robot_ip: &str, clients: &[&str]) -> Option<()> {
+    let run = |args: &[&str]| {
+        Command::new("openssl")
+            .args(args)
+            .current_dir(dir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    let ec = [
+        "-newkey",
+        "ec",
+        "-pkeyopt",
+        "ec_paramgen_curve:prime256v1",
+        "-nodes",
+    ];
+    let ok = run(&[
+        &["req", "-x509"][..],
+        &ec,
+        &[
+            "-keyout",
+            "ca-key.pem",
+            "-out",
+            "ca.pem",
+            "-days",
+            "1",
+            "-subj",
+            "/CN=mimnav-test-ca",
+        ],
+    ]
+    .concat());
+    if !ok {
+        return None;
+    }
+    for (name, san) in std::iter::once(("robot", format!("IP:{robot_ip}")))
+        .chain(clients.iter().map(|c| (*c, format!("DNS:{c}"))))
+    {
+        let ext = format!("{name}.ext");
+        std::fs::write(
+            dir.join(&ext),
+            format!(
+                "basicConstraints=CA:FALSE\nkeyUsage=digitalSignature\n\
+                 extendedKeyUsage=serverAuth,clientAuth\nsubjectAltName={san}\n"
+            ),
+        )
+        .ok()?;
+        let (key, csr, pem) = (
+            format!("{name}-key.pem"),
+            format!("{name}.csr"),
+            format!("{name}.pem"),
+        );
+        let subj = format!("/CN={name}");
+        let ok = run(&[
+            &["req"][..],
+            &ec,
+            &["-keyout", &key, "-out", &csr, "-subj", &subj],
+        ]
+        .concat())
+            && run(&[
+                "x509",
+                "-req",
+                "-in",
+                &csr,
+                "-CA",
+                "ca.pem",
+                "-CAkey",
+                "ca-key.pem",
+                "-CAcreateserial",
+                "-out",
+                &pem,
+                "-days",
+                "1",
+                "-extfile",
+                &ext,
+            ]);
+        if !ok {
+            return None;
+        }
+    }
+    Some(())
+}
+
+/// docs/zenoh-robot.json5 itself (TLS with client certificates, access control) for a robot in
+/// namespace A: the operator's goal reaches `mimnav/goal`, a fleet station's does not, though
+/// both watch the robot.
+#[test]
+fn issue25_3_the_documented_access_control_lets_only_the_operator_steer() {
+    let test = "zenoh access control";
+    let Some(python) = python_with_zenoh(test) else {
+        return;
+    };
+    let Some(net) = NetnsPair::create(test) else {
+        return;
+    };
+    let dir =
+        TempDir(std::env::temp_dir().join(format!("mimnav-zenoh-tls-{}", std::process::id())));
+    std::fs::create_dir_all(&dir.0).expect("temporary folder");
+    if certificates(&dir.0, &net.a_ip, &["operator-laptop", "fleet-station"]).is_none() {
+        println!("SKIP {test}: openssl could not make the certificates");
+        return;
+    }
+    let robot = format!("t{}", std::process::id());
+    let doc = std::fs::read_to_string(root().join("docs/zenoh-robot.json5")).expect("the example");
+    let conf = doc
+        .replace("mimnav/spot1/", &format!("mimnav/{robot}/"))
+        .replace(
+            "/etc/mimnav/zenoh/spot1-key.pem",
+            &dir.0.join("robot-key.pem").display().to_string(),
+        )
+        .replace(
+            "/etc/mimnav/zenoh/spot1.pem",
+            &dir.0.join("robot.pem").display().to_string(),
+        )
+        .replace(
+            "/etc/mimnav/zenoh/ca.pem",
+            &dir.0.join("ca.pem").display().to_string(),
+        );
+    assert!(!conf.contains("/etc/mimnav"), "every path replaced: {conf}");
+    let zconf = dir.0.join("robot.json5");
+    std::fs::write(&zconf, conf).expect("write the robot's config");
+
+    let domain = PrivateDomain::new("zenohacl");
+    let args = crate::util::config_args(&domain);
+    let node = ipc::node(&domain.config(), "zenoh-test").expect("node");
+    let goals = ipc::goal_subscriber(&node).expect("goal");
+    let odom = ipc::odom_publisher(&node).expect("odom");
+    let mut log = Vec::new();
+    let (mut bridge, _rx) = start_bridge(
+        &net.a,
+        &args,
+        &[
+            "zenoh.enabled=true".into(),
+            format!("zenoh.robot=\"{robot}\""),
+            "zenoh.accept_goals=true".into(),
+            "zenoh.topics=[\"odom\"]".into(),
+            format!("zenoh.config_file=\"{}\"", zconf.display()),
+        ],
+        &mut log,
+    );
+    let endpoint = format!("tls/{}:7447", net.a_ip);
+    let mut peers: Vec<Peer> = ["fleet-station", "operator-laptop"]
+        .iter()
+        .map(|name| {
+            Peer::start_tls(
+                &python,
+                &net.b,
+                &endpoint,
+                &robot,
+                &["odom"],
+                Some((&dir.0, name)),
+            )
+        })
+        .collect();
+    // both watch: each hears the odometry over TLS
+    let end = Instant::now() + Duration::from_secs(30);
+    let mut seq = 0;
+    while peers.iter().any(|p| p.samples("odom").is_empty()) && Instant::now() < end {
+        seq += 1;
+        let o = Odometry {
+            seq,
+            rx_mono_ns: ipc::monotonic_ns(),
+            ..Odometry::default()
+        };
+        odom.publish(o).expect("publish odom");
+        for p in &mut peers {
+            p.until(Duration::from_millis(50), |_| false);
+        }
+    }
+    for p in &peers {
+        assert!(
+            !p.samples("odom").is_empty(),
+            "every viewer hears the robot: {:?}",
+            p.seen
+        );
+    }
+    // the fleet station may not steer
+    for _ in 0..3 {
+        peers[0].send("goal 2 0 0.3");
+        peers[0].send("stop");
+    }
+    let got = goal_within(&goals, Duration::from_secs(2), |_| true);
+    assert!(
+        got.is_none(),
+        "the fleet station's goal is refused: {got:?}"
+    );
+    // the operator may
+    let mut goal = None;
+    for _ in 0..3 {
+        peers[1].send("goal 4 1 0.5");
+        goal = goal_within(&goals, Duration::from_secs(3), |_| true);
+        if goal.is_some() {
+            break;
+        }
+    }
+    let (g, _) = goal.expect("the operator's goal reaches mimnav/goal");
+    assert_eq!((g.x, g.y, g.tolerance_m, g.flags), (4.0, 1.0, 0.5, 0));
+    assert!(
+        bridge
+            .terminate(Duration::from_secs(10))
+            .is_some_and(|s| s.success())
     );
 }

@@ -9,9 +9,12 @@ on stdin, one a line, each answered with {"event": "sent", ...}:
   bad            a malformed goal and a goal with a tolerance out of range
   quit
 usage: zenoh_peer.py ENDPOINT ROBOT TOPIC...
+With ZENOH_PEER_TLS="DIR NAME" it connects with mutual TLS: DIR/ca.pem, DIR/NAME.pem and
+DIR/NAME-key.pem.
 """
 
 import json
+import os
 import sys
 import threading
 
@@ -61,6 +64,16 @@ def main():
     conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
     conf.insert_json5("listen/endpoints", "[]")
     conf.insert_json5("scouting/multicast/enabled", "false")
+    tls = os.environ.get("ZENOH_PEER_TLS")  # "DIR NAME": DIR/ca.pem, DIR/NAME.pem, DIR/NAME-key.pem
+    if tls:
+        d, name = tls.split()
+        for key, value in (
+            ("root_ca_certificate", f"{d}/ca.pem"),
+            ("connect_certificate", f"{d}/{name}.pem"),
+            ("connect_private_key", f"{d}/{name}-key.pem"),
+        ):
+            conf.insert_json5(f"transport/link/tls/{key}", json.dumps(value))
+        conf.insert_json5("transport/link/tls/enable_mtls", "true")
     session = zenoh.open(conf)
     subs = [session.declare_subscriber(f"mimnav/{robot}/{t}", on_sample(t)) for t in topics]
     say(event="open", zid=str(session.info.zid()), subscribers=len(subs))
