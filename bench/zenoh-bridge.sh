@@ -36,7 +36,10 @@ args=(--config config/mimnav.toml
   --set 'velodyne.input="udp"' --set 'velodyne.bind_address="127.0.0.1"'
   --set "velodyne.data_port=$dp" --set "velodyne.position_port=$pp" --set 'sim.udp_target="127.0.0.1"')
 pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$tmp"; }
+# the run's own domain: its root path and the segments of its prefix (iceoryx2 leaves the 16-byte
+# global management segment behind by design)
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true
+  rm -rf "$tmp"; rm -f /dev/shm/zb$$_*; }
 trap cleanup EXIT
 for s in mimnav-velodyne mimnav-mapper mimnav-planner mimnav-foliage; do
   "$bin/$s" "${args[@]}" 2>/dev/null & pids+=($!)
