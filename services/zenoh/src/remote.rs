@@ -212,6 +212,30 @@ mod tests {
         );
     }
 
+    proptest::proptest! {
+        /// Any bytes on either key: no panic, and whatever is accepted is a goal whose numbers
+        /// pass the checks, or a stop.
+        #[test]
+        fn any_bytes_are_refused_or_give_a_checked_goal(
+            bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..1100),
+            json in "\\{\"x\": ?-?[0-9e.]{1,6}, \"y\": ?-?[0-9e.]{1,6}(, \"tolerance_m\": ?-?[0-9e.]{1,5})?\\}",
+        ) {
+            for key in [RemoteKey::Goal, RemoteKey::Stop] {
+                for payload in [&bytes[..], json.as_bytes()] {
+                    match parse(key, payload) {
+                        Ok(Remote::Goal { x, y, tolerance_m }) => {
+                            proptest::prop_assert!(x.is_finite() && y.is_finite());
+                            proptest::prop_assert!(x.abs() <= MAX_COORDINATE_M && y.abs() <= MAX_COORDINATE_M);
+                            proptest::prop_assert!((TOLERANCE_RANGE_M.0..=TOLERANCE_RANGE_M.1).contains(&tolerance_m));
+                        }
+                        Ok(Remote::Stop) => proptest::prop_assert!(payload.len() <= MAX_PAYLOAD),
+                        Err(e) => proptest::prop_assert!(!e.kind().is_empty()),
+                    }
+                }
+            }
+        }
+    }
+
     /// Every malformed or out-of-range message is refused with its kind, never a panic.
     #[test]
     fn bad_remote_input_is_refused_by_kind() {
