@@ -46,3 +46,6 @@ mod velodyne;
 mod view;
 /// Generated worlds (issue 22): determinism, well-formedness, reachability, eval per family.
 mod worlds;
+/// `mimnav-zenoh` between two network namespaces, with PyPI's `eclipse-zenoh` as the remote host
+/// (issue 25).
+mod zenoh;

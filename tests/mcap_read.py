@@ -9,7 +9,8 @@ counts per topic. Per topic: schema name and encoding, message encoding, the mes
 sequence numbers, and for `foxglove.PointCloud` messages the point counts. `first_cloud`: the
 first point cloud's sequence number and its x, y, z, intensity values (by the fields' offsets); `first_grid`, per topic of
 `foxglove.Grid` messages: the first one's sequence number, column count, cell stride and data
-(hex).
+(hex). `messages`, per topic of a `mimnav.*` schema (commands, goals, base states, verdicts,
+scans): every message, decoded.
 """
 
 import base64
@@ -23,7 +24,7 @@ from mcap.stream_reader import StreamReader
 
 path = sys.argv[1]
 schemas, channels, topics = {}, {}, {}
-out = {"summary": False, "truncated": None, "stats": None, "topics": topics, "first_cloud": None, "first_grid": {}}
+out = {"summary": False, "truncated": None, "stats": None, "topics": topics, "first_cloud": None, "first_grid": {}, "messages": {}}
 
 with open(path, "rb") as f:
     try:
@@ -64,6 +65,8 @@ with open(path, "rb") as f:
                             for name in ("x", "y", "z", "intensity"):
                                 values.append(struct.unpack_from("<f", data, at + offsets[name])[0])
                         out["first_cloud"] = {"seq": record.sequence, "values": values}
+                if t["schema"].startswith("mimnav."):
+                    out["messages"].setdefault(channel.topic, []).append(message)
                 if t["schema"] == "foxglove.Grid" and channel.topic not in out["first_grid"]:
                     out["first_grid"][channel.topic] = {
                         "seq": record.sequence,

@@ -6,7 +6,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
-use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, Point, PointsHeader};
+use mimnav_shared::topics::{MapHeader, Odometry, PlanCell, Point, PointsHeader, VelocityCommand};
 use serde_json::Value;
 
 use crate::util::{Proc, TempFile, bin, config_args, lines_of, root, wait_until};
@@ -674,4 +674,74 @@ fn a_rotated_recording_is_whole_files_that_hold_every_revolution_once() {
     }
     assert!(files >= 3, "{files} files");
     assert_eq!(seqs, [0, 1, 2, 3, 4], "every revolution once, in order");
+}
+
+/// Issue 25, "a sampled map and command decode to the values the stack sent": commands
+/// published on `cmd_vel` are read back by PyPI's `mcap` with every field as sent.
+#[test]
+fn records_the_commands_as_they_were_sent() {
+    let Some(python) = python_with_mcap("records_the_commands") else {
+        return;
+    };
+    let domain = PrivateDomain::new("e2e-record-cmd");
+    let file = temp_mcap("record-cmd");
+    let mut recorder = start_recorder(&domain, &file.0, &["--topic", "cmd_vel"]);
+    let node = ipc::node(&domain.config(), "e2e-record-cmd-pub").expect("node");
+    let cmd = ipc::cmd_vel_publisher(&node).expect("cmd_vel");
+    let sent: Vec<VelocityCommand> = (0..5u8)
+        .map(|k| VelocityCommand {
+            seq: u64::from(k),
+            stamp_mono_ns: ipc::monotonic_ns(),
+            source_stamp_ns: 1_700_000_000_000_000_000 + u64::from(k),
+            source_seq: 100 + u64::from(k),
+            valid_until_mono_ns: ipc::monotonic_ns() + 300_000_000,
+            v: 0.1 * f32::from(k),
+            omega: -0.05 * f32::from(k),
+            status: k % 3,
+            flags: k,
+            ..VelocityCommand::default()
+        })
+        .collect();
+    for c in &sent {
+        cmd.publish(*c).expect("publish");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let status = recorder
+        .terminate(Duration::from_secs(5))
+        .expect("the recorder ends within 5 s of SIGTERM");
+    assert!(status.success(), "{status}");
+    let got = read_mcap(&python, &file.0);
+    let t = &got["topics"]["mimnav/cmd_vel"];
+    assert_eq!(t["schema"], "mimnav.VelocityCommand");
+    assert_eq!(t["count"], 5, "every command");
+    assert_eq!(got["stats"]["mimnav/cmd_vel"], 5);
+    let messages = got["messages"]["mimnav/cmd_vel"]
+        .as_array()
+        .expect("messages");
+    for (m, c) in messages.iter().zip(&sent) {
+        let u = |k: &str| m[k].as_u64().expect(k);
+        assert_eq!(
+            (
+                u("seq"),
+                u("stamp_mono_ns"),
+                u("source_stamp_ns"),
+                u("source_seq"),
+                u("valid_until_mono_ns")
+            ),
+            (
+                c.seq,
+                c.stamp_mono_ns,
+                c.source_stamp_ns,
+                c.source_seq,
+                c.valid_until_mono_ns
+            )
+        );
+        assert_eq!(m["v"].as_f64().expect("v") as f32, c.v);
+        assert_eq!(m["omega"].as_f64().expect("omega") as f32, c.omega);
+        assert_eq!(
+            (u("status"), u("flags")),
+            (u64::from(c.status), u64::from(c.flags))
+        );
+    }
 }

@@ -175,7 +175,7 @@ pub fn rust_layouts() -> BTreeMap<String, Layout> {
         layout!(VelocityCommand, [seq, stamp_mono_ns, source_stamp_ns, source_seq, valid_until_mono_ns, v, omega,
             status, flags, reserved]),
         layout!(Odometry, [seq, stamp_ns, rx_mono_ns, x, y, yaw, v, omega]),
-        layout!(Goal, [seq, stamp_mono_ns, x, y, tolerance_m]),
+        layout!(Goal, [seq, stamp_mono_ns, x, y, tolerance_m, flags, reserved]),
         layout!(BaseState, [seq, rx_mono_ns, base_stamp_ms, battery_v, halted, base, link, bumper, cliff, wheel_drop,
             buttons, charger, over_current, reserved, rejected, link_losses]),
         layout!(TruthHeader, [seq, stamp_ns, x, y, yaw, cells, cell_m]),

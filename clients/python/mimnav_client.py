@@ -32,7 +32,10 @@ import ctypes
 from dataclasses import dataclass
 from typing import Iterator, Optional
 
-import iceoryx2 as iox2
+try:
+    import iceoryx2 as iox2
+except ImportError:  # pragma: no cover - a host that only reads Zenoh (decode_remote) needs ctypes
+    iox2 = None
 
 __all__ = [
     "DEFAULT_ROOT_PATH",
@@ -73,6 +76,10 @@ __all__ = [
     "Subscriber",
     "Publisher",
     "check_layouts",
+    "ZENOH_ENCODING",
+    "decode_remote",
+    "goal_json",
+    "GOAL_STOP",
 ]
 
 # --- joining the domain (shared/src/config/iceoryx2.rs) ------------------------------------------
@@ -303,16 +310,18 @@ class PlanCell(_Named):
 
 
 class Goal(_Named):
-    """A goal in the odometry frame (``goal``)."""
+    """A goal in the odometry frame (``goal``), or with ``flags`` = ``GOAL_STOP`` a stop request."""
 
-    TYPE_NAME = "mimnav/Goal/v1"
-    LAYOUT = (40, 8)
+    TYPE_NAME = "mimnav/Goal/v2"
+    LAYOUT = (48, 8)
     _fields_ = [
         ("seq", u64),
         ("stamp_mono_ns", u64),
         ("x", f64),
         ("y", f64),
         ("tolerance_m", f64),
+        ("flags", u8),
+        ("reserved", u8 * 7),
     ]
 
 
@@ -675,3 +684,52 @@ class Publisher:
     def close(self) -> None:
         self._pub.delete()
         self.notifier.delete()
+
+
+# --- the same bytes from another host (mimnav-zenoh, docs/zenoh.md) -------------------------------
+
+#: ``Goal.flags`` bit of a stop request: the planner holds zero velocity until a new goal.
+GOAL_STOP = 1
+
+#: The MIME type of every payload mimnav-zenoh publishes; the encoding's schema names the types.
+ZENOH_ENCODING = "application/octet-stream"
+
+
+def decode_remote(topic: str, data: bytes) -> Message:
+    """Decodes a payload mimnav-zenoh published on ``mimnav/<robot>/<topic>`` (``topic`` as
+    ``"lidar/points"`` or ``"mimnav/lidar/points"``): the header, then the elements, laid out as
+    in docs/topics.md. Needs only ctypes (no iceoryx2). Raises ValueError when the length does
+    not fit the topic's layout, or a slice's header count differs from its elements."""
+    name = topic if topic.startswith("mimnav/") else "mimnav/" + topic
+    t = TOPICS.get(name)
+    if t is None:
+        raise ValueError(f"unknown topic {topic!r}")
+    data = bytes(data)
+    if not t.is_slice:
+        if len(data) != ctypes.sizeof(t.payload):
+            raise ValueError(f"{name}: {len(data)} bytes, {t.payload.__name__} has {ctypes.sizeof(t.payload)}")
+        return Message(header=None, items=t.payload.from_buffer_copy(data))
+    hsize, isize = ctypes.sizeof(t.header), ctypes.sizeof(t.payload)
+    rest = len(data) - hsize
+    if rest < 0 or rest % isize:
+        raise ValueError(f"{name}: {len(data)} bytes is not a {t.header.__name__} and whole elements")
+    header = t.header.from_buffer_copy(data[:hsize])
+    items = (t.payload * (rest // isize)).from_buffer_copy(data[hsize:])
+    counted = {
+        "mimnav/lidar/points": lambda h: h.point_count,
+        "mimnav/lidar/scan2d": lambda h: h.count,
+        "mimnav/foliage/alarm": lambda h: h.count,
+        "mimnav/map/plan": lambda h: h.cells * h.cells,
+        "mimnav/sim/truth": lambda h: h.cells * h.cells,
+        "mimnav/map/layers": lambda h: h.cells * h.cells * h.layers,
+    }[name](header)
+    if counted != len(items):
+        raise ValueError(f"{name}: the header says {counted} elements, the payload holds {len(items)}")
+    return Message(header=header, items=items)
+
+
+def goal_json(x: float, y: float, tolerance_m: float = 0.3) -> bytes:
+    """A goal for ``mimnav/<robot>/goal`` as mimnav-zenoh reads it (JSON)."""
+    import json
+
+    return json.dumps({"x": float(x), "y": float(y), "tolerance_m": float(tolerance_m)}).encode()

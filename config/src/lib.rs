@@ -30,6 +30,7 @@
 //! | `[kobuki]` | [`mimnav_kobuki::config::KobukiConfig`] |
 //! | `[spot]` | [`SpotConfig`] |
 //! | `[view]` | [`ViewConfig`] |
+//! | `[zenoh]` | [`ZenohConfig`] |
 //! | `[robot]`, `[map]`, `[log]`, `[latency]`, `[iceoryx2]` | [`Common`] |
 //!
 //! [`Config`] checks the file whole: unknown keys, wrong types and out-of-range values are errors
@@ -47,6 +48,7 @@
 
 mod spot;
 mod view;
+mod zenoh;
 
 use std::ops::{Deref, DerefMut};
 use std::path::Path;
@@ -72,6 +74,7 @@ use mimnav_sim::config::SimConfig;
 use mimnav_velodyne::config::VelodyneConfig;
 pub use spot::SpotConfig;
 pub use view::ViewConfig;
+pub use zenoh::{BRIDGE_TOPICS, ZenohConfig, is_key_chunk};
 
 /// The whole stack's configuration: the shared sections ([`Common`], reached through `Deref`:
 /// `config.robot`, `config.map`, …) and every library's own.
@@ -95,6 +98,8 @@ pub struct Config {
     pub spot: SpotConfig,
     /// `[view]`: the Foxglove live view.
     pub view: ViewConfig,
+    /// `[zenoh]`: the Zenoh bridge.
+    pub zenoh: ZenohConfig,
 }
 
 impl Deref for Config {
@@ -132,6 +137,7 @@ struct FileConfig {
     kobuki: KobukiConfig,
     spot: SpotConfig,
     view: ViewConfig,
+    zenoh: ZenohConfig,
     latency: LatencyConfig,
 }
 
@@ -207,6 +213,7 @@ impl Config {
             kobuki: file.kobuki,
             spot: file.spot,
             view: file.view,
+            zenoh: file.zenoh,
         };
         config
             .validate()
@@ -227,6 +234,7 @@ impl Config {
         r.merge(self.kobuki.validate());
         r.merge(self.spot.validate());
         r.merge(self.view.validate());
+        r.merge(self.zenoh.validate());
         // a map comes once per revolution: a shorter limit would call every map stale
         let revolution_s = 60.0 / self.velodyne.rpm;
         r.require(

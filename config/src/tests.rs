@@ -170,6 +170,7 @@ fn shipped_config_holds_the_defaults() {
     assert_eq!(c.planner, d.planner);
     assert_eq!(c.foliage, d.foliage);
     assert_eq!(c.latency, d.latency);
+    assert_eq!(c.zenoh, d.zenoh);
     for profile in ["spot", "turtlebot2"] {
         let c = Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
         assert_eq!(c.robot.name, profile);

@@ -225,6 +225,7 @@ impl Lockstep {
             x,
             y,
             tolerance_m,
+            ..Goal::default()
         })?;
         Ok(())
     }

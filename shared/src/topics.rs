@@ -438,10 +438,13 @@ pub struct PlanCell {
 /// Topic of the navigation goal: [`Goal`].
 pub const GOAL: &str = "mimnav/goal";
 
-/// A goal in the odometry frame.
+/// A goal in the odometry frame, or a stop request ([`goal_flags::STOP`]).
+///
+/// v2 (issue 25) added `flags` so that a stop request from the network travels on the same
+/// topic as goals, in order with them: the newest message wins.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[repr(C)]
-#[type_name("mimnav/Goal/v1")]
+#[type_name("mimnav/Goal/v2")]
 pub struct Goal {
     /// Goal sequence number (a new goal replaces the old one).
     pub seq: u64,
@@ -453,6 +456,17 @@ pub struct Goal {
     pub y: f64,
     /// Reached within this distance, m.
     pub tolerance_m: f64,
+    /// [`goal_flags`]; 0 for a goal.
+    pub flags: u8,
+    /// Zero.
+    pub reserved: [u8; 7],
+}
+
+/// Bits of [`Goal::flags`].
+pub mod goal_flags {
+    /// A stop request, not a goal: the planner drops its goal and holds zero velocity (status
+    /// `NO_GOAL`) until a new goal comes; x, y and the tolerance are ignored.
+    pub const STOP: u8 = 1;
 }
 
 /// Topic of the robot base's state: [`BaseState`], published by the base's service

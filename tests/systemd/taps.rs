@@ -130,6 +130,7 @@ pub(crate) fn odom_and_goal(config: Config, stop: Arc<AtomicBool>) -> std::threa
                     x: 5.0,
                     y: 0.0,
                     tolerance_m: 0.3,
+                    ..Goal::default()
                 });
             }
             k += 1;

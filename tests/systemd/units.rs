@@ -86,7 +86,14 @@ fn verify_root(tag: &str) -> Option<TempDir> {
     let o = install(&t.0);
     assert!(o.status.success(), "{}", text(&o));
     // verify resolves the units a unit pulls in; an empty unit file would count as masked
-    for target in ["sysinit", "basic", "shutdown", "network", "multi-user"] {
+    for target in [
+        "sysinit",
+        "basic",
+        "shutdown",
+        "network",
+        "network-online",
+        "multi-user",
+    ] {
         let p = t.0.join(format!("usr/lib/systemd/system/{target}.target"));
         std::fs::write(p, "[Unit]\nDescription=stub for verify\n").expect("stub");
     }

@@ -179,6 +179,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         x: goal_odom.0,
         y: goal_odom.1,
         tolerance_m: config.sim.goal_tolerance_m,
+        ..Goal::default()
     };
     goal_pub.publish(goal)?;
 

@@ -48,6 +48,7 @@ pub fn run(config: &Config, args: &GoalArgs) -> Result<ExitCode> {
         x: args.x,
         y: args.y,
         tolerance_m: args.tolerance,
+        ..Goal::default()
     };
     let mut delivered = publisher.publish(goal)?;
     let _ = node.wait(Duration::from_millis(200));

@@ -15,13 +15,14 @@ use std::process::{Command, ExitCode};
 use anyhow::{Context, Result, bail};
 
 /// The services' binaries, which the units start from `/usr/bin`, and the front end.
-pub const BINARIES: [&str; 7] = [
+pub const BINARIES: [&str; 8] = [
     "mimnav-velodyne",
     "mimnav-mapper",
     "mimnav-foliage",
     "mimnav-planner",
     "mimnav-kobuki",
     "mimnav-view",
+    "mimnav-zenoh",
     "mimnav",
 ];
 
@@ -30,7 +31,7 @@ pub const BINARIES: [&str; 7] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 10] = [
+pub const SYSTEMD_FILES: [(&str, &str); 11] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -58,6 +59,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 10] = [
     (
         "usr/lib/systemd/system/mimnav-view.service",
         include_str!("../../../systemd/system/mimnav-view.service"),
+    ),
+    (
+        "usr/lib/systemd/system/mimnav-zenoh.service",
+        include_str!("../../../systemd/system/mimnav-zenoh.service"),
     ),
     (
         "usr/lib/systemd/system/mimnav.target",
@@ -229,6 +234,10 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
         "the robot's base, part of mimnav.target once enabled:  systemctl enable mimnav-kobuki.service \
          (Turtlebot 2; docs/deployment.md has its udev rule) or mimnav-spot.service (Spot: install \
          with --spot, credentials in /etc/mimnav/spot-credentials, mode 0600)"
+    )?;
+    outln!(
+        "the Zenoh bridge (topics for other hosts, remote goals; docs/zenoh.md): set [zenoh] \
+         enabled = true in the config, then  systemctl enable mimnav-zenoh.service"
     )?;
     outln!(
         "start the stack now and at every boot:  systemctl enable --now mimnav.target\n\

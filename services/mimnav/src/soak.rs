@@ -249,6 +249,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
         x: ends[(seq % 2) as usize][0],
         y: ends[(seq % 2) as usize][1],
         tolerance_m: config.sim.goal_tolerance_m,
+        ..Goal::default()
     };
     let (mut goal_seq, mut goal_taken) = (0u64, false);
     goal_pub.publish(goal(goal_seq))?;

@@ -24,7 +24,7 @@ use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
     FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
-    command_status, foliage_class,
+    command_status, foliage_class, goal_flags,
 };
 
 use crate::dwa::DwaOutcome;
@@ -315,8 +315,16 @@ impl Pilot {
     }
 
     /// Takes a new goal; refuses (and keeps the previous one) when a number is not finite or the
-    /// tolerance is negative.
+    /// tolerance is negative. A stop request ([`goal_flags::STOP`], issue 25) drops the goal:
+    /// zero velocity (status `NO_GOAL`) until a new goal comes.
     pub fn goal(&mut self, g: &Goal) -> Result<(), Refused> {
+        if g.flags & goal_flags::STOP != 0 {
+            self.goal = None;
+            self.no_route_since = None;
+            self.back_out = BackOut::default();
+            self.look = Look::default();
+            return Ok(());
+        }
         if !(g.x.is_finite() && g.y.is_finite() && g.tolerance_m.is_finite()) || g.tolerance_m < 0.0
         {
             return Err(Refused::Goal(g.seq));
@@ -627,7 +635,11 @@ impl Pilot {
         };
         let look_ns = self.params().look_ns();
         let l = &mut self.look;
-        let sign = if l.tries.is_multiple_of(2) { first } else { -first };
+        let sign = if l.tries.is_multiple_of(2) {
+            first
+        } else {
+            -first
+        };
         let (tx, ty) = crate::look::look_target(
             &s,
             sign,

@@ -74,7 +74,7 @@ fn issue23_3_non_finite_values_accepted_the_planner_never_commands_from_them() {
             omega: vel.1,
         };
         let odom_taken = p.odom(&odom).is_ok();
-        let goal = Goal { seq: 1, stamp_mono_ns: t, x: goal.0, y: goal.1, tolerance_m: goal.2.abs() };
+        let goal = Goal { seq: 1, stamp_mono_ns: t, x: goal.0, y: goal.1, tolerance_m: goal.2.abs(), ..Goal::default() };
         let goal_taken = p.goal(&goal).is_ok();
         let d = p.on_map(&header(), free(), t);
         let cmd = p.command(&d, t);
@@ -122,6 +122,7 @@ fn issue23_3_non_finite_values_accepted_an_overflowing_goal_stops_with_a_status(
         x: 0.0,
         y: -f64::MAX,
         tolerance_m: 0.3,
+        ..Goal::default()
     };
     p.goal(&goal).expect("a finite goal is taken");
     let d = p.on_map(&header(), free(), t);

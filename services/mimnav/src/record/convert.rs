@@ -176,6 +176,7 @@ impl Topic {
                 ("x", NUM),
                 ("y", NUM),
                 ("tolerance_m", NUM),
+                ("flags", INT),
             ]),
             Topic::Foliage => object(&[
                 ("seq", INT),
@@ -476,7 +477,7 @@ pub fn cmd_vel(c: &VelocityCommand) -> Vec<u8> {
     }))
 }
 
-/// `goal`: every field.
+/// `goal`: every field but the reserved bytes (`flags` 1: a stop request).
 pub fn goal(g: &Goal) -> Vec<u8> {
     to_bytes(&json!({
         "seq": g.seq,
@@ -484,6 +485,7 @@ pub fn goal(g: &Goal) -> Vec<u8> {
         "x": g.x,
         "y": g.y,
         "tolerance_m": g.tolerance_m,
+        "flags": g.flags,
     }))
 }
 

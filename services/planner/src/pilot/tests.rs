@@ -46,6 +46,7 @@ fn goal(x: f64, y: f64, at: u64) -> Goal {
         x,
         y,
         tolerance_m: 0.3,
+        ..Goal::default()
     }
 }
 
@@ -195,6 +196,36 @@ fn a_non_finite_goal_is_refused_and_the_last_good_one_kept() {
     let d = p.on_map(&header(1), free(), t);
     assert_eq!(d.status, command_status::DRIVING);
     assert!(d.v.is_finite() && d.omega.is_finite());
+}
+
+/// Issue 25: a stop request (a goal with the stop flag, even one whose numbers are not finite)
+/// drops the goal and holds zero velocity, map after map, until a new goal comes.
+#[test]
+fn issue25_a_stop_request_holds_zero_velocity_until_a_new_goal() {
+    let t = 10 * S;
+    let mut p = driving(PlannerParams::default(), t);
+    assert_eq!(
+        p.on_map(&header(1), free(), t).status,
+        command_status::DRIVING
+    );
+    let stop = Goal {
+        seq: 2,
+        x: f64::NAN,
+        flags: goal_flags::STOP,
+        ..goal(0.0, 0.0, t)
+    };
+    assert_eq!(p.goal(&stop), Ok(()));
+    assert!(p.current_goal().is_none());
+    for k in 2..6 {
+        let d = p.on_map(&header(k), free(), t + k * S / 20);
+        assert_eq!(d.status, command_status::NO_GOAL);
+        assert!(d.v == 0.0 && d.omega == 0.0);
+    }
+    p.goal(&goal(3.0, 0.0, t)).expect("a new goal");
+    p.odom(&odom(t + S)).expect("good odometry");
+    let d = p.on_map(&header(7), free(), t + S);
+    assert_eq!(d.status, command_status::DRIVING);
+    assert!(d.v > 0.0);
 }
 
 #[test]

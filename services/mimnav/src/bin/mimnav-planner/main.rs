@@ -121,7 +121,12 @@ fn run(config: &Config) -> Result<()> {
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| pilot.odom(o));
         h.take_latest(&goal_sub, turn.now, "bad_goal", |g| {
             let taken = pilot.goal(g);
-            if taken.is_ok() {
+            if taken.is_ok() && g.flags & topics::goal_flags::STOP != 0 {
+                tracing::info!(
+                    seq = g.seq,
+                    "stop requested: zero velocity until a new goal"
+                );
+            } else if taken.is_ok() {
                 tracing::info!(x = g.x, y = g.y, seq = g.seq, "new goal");
             }
             taken
