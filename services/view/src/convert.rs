@@ -180,7 +180,7 @@ pub fn check_map(h: &MapHeader, len: usize, per_cell: u32) -> Result<(), BadSamp
 }
 
 /// Checks that a grid's payload holds `cells² × layers` values (and is not empty).
-fn check_grid(len: usize, cells: u32, layers: u32) -> Result<(), BadSample> {
+pub fn check_grid(len: usize, cells: u32, layers: u32) -> Result<(), BadSample> {
     let want = (cells as usize)
         .checked_mul(cells as usize)
         .and_then(|n| n.checked_mul(layers as usize));
@@ -191,6 +191,32 @@ fn check_grid(len: usize, cells: u32, layers: u32) -> Result<(), BadSample> {
     }
 }
 
+/// The cells of a robot-centred `n × n` map in Foxglove's order: mimnav stores cell (r along x,
+/// c along y) at `r · n + c`; Foxglove fills each row along x, so `put` is called with the
+/// indices transposed and writes (r, c) at `c · n + r`, `cell_stride` bytes each. `mimnav
+/// record`'s grids are laid out by this too.
+pub fn grid_cells(
+    n: usize,
+    cell_stride: usize,
+    mut put: impl FnMut(usize, &mut Vec<u8>),
+) -> Vec<u8> {
+    let mut data = Vec::with_capacity(n * n * cell_stride);
+    for c in 0..n {
+        for r in 0..n {
+            put(r * n + c, &mut data);
+        }
+    }
+    data
+}
+
+/// The corner of a robot-centred map of `cells` cells of `cell_m` at the pose (x, y, yaw): half
+/// the side back and right of the robot, turned with it (a Foxglove grid's origin).
+pub fn grid_corner((x, y, yaw): (f64, f64, f64), cells: u32, cell_m: f32) -> (f64, f64) {
+    let half = f64::from(cells) * f64::from(cell_m) * 0.5;
+    let (s, co) = yaw.sin_cos();
+    (x - co * half + s * half, y - s * half - co * half)
+}
+
 /// A `Grid` of the robot-centred `cells × cells` map of `h`, placed at the robot's pose in the
 /// odometry frame. mimnav stores cell (r along x, c along y) at `r · cells + c`; Foxglove fills
 /// each row along x, so the cells are transposed: `data` holds (r, c) at `c · cells + r`,
@@ -199,20 +225,12 @@ fn grid(
     h: &MapHeader,
     fields: Vec<PackedElementField>,
     cell_stride: usize,
-    mut put: impl FnMut(usize, &mut Vec<u8>),
+    put: impl FnMut(usize, &mut Vec<u8>),
 ) -> Result<Grid, BadSample> {
     finite_pose(h.x, h.y, h.yaw)?;
     let n = h.cells as usize;
-    let mut data = Vec::with_capacity(n * n * cell_stride);
-    for c in 0..n {
-        for r in 0..n {
-            put(r * n + c, &mut data);
-        }
-    }
-    // the grid's corner: half the side back and right of the robot, turned with it
-    let half = f64::from(h.cells) * f64::from(h.cell_m) * 0.5;
-    let (s, co) = h.yaw.sin_cos();
-    let corner = (h.x - co * half + s * half, h.y - s * half - co * half);
+    let data = grid_cells(n, cell_stride, put);
+    let corner = grid_corner((h.x, h.y, h.yaw), h.cells, h.cell_m);
     Ok(Grid {
         timestamp: Some(stamp(h.stamp_ns)),
         frame_id: ODOM_FRAME.into(),

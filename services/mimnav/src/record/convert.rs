@@ -70,20 +70,10 @@ pub enum Topic {
     Truth,
 }
 
-/// Why a sample could not be converted: it is skipped and counted, the recording goes on.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum BadSample {
-    /// A grid's payload does not hold `cells² × layers` values.
-    #[error("payload of {len} values, the header says {cells} × {cells} cells × {layers}")]
-    GridSize {
-        /// Values in the payload.
-        len: usize,
-        /// `cells` of the header.
-        cells: u32,
-        /// Values per cell.
-        layers: u32,
-    },
-}
+/// Why a sample could not be converted: it is skipped and counted, the recording goes on (the
+/// live view's reasons: a grid's payload that does not match its header).
+pub use mimnav_view::convert::BadSample;
+use mimnav_view::convert::{check_grid, grid_cells, grid_corner};
 
 impl Topic {
     /// Every topic, in the order of `docs/topics.md`.
@@ -542,19 +532,11 @@ fn grid(
     cell_m: f32,
     fields: Vec<Value>,
     cell_stride: usize,
-    mut put: impl FnMut(usize, &mut Vec<u8>),
+    put: impl FnMut(usize, &mut Vec<u8>),
 ) -> Vec<u8> {
     let n = cells as usize;
-    let mut data = Vec::with_capacity(n * n * cell_stride);
-    for c in 0..n {
-        for r in 0..n {
-            put(r * n + c, &mut data);
-        }
-    }
-    // the grid's corner: half the side back and right of the robot, turned with it
-    let h = f64::from(cells) * f64::from(cell_m) * 0.5;
-    let (s, co) = yaw.sin_cos();
-    let corner = (x + co * -h - s * -h, y + s * -h + co * -h);
+    let data = grid_cells(n, cell_stride, put);
+    let corner = grid_corner((x, y, yaw), cells, cell_m);
     to_bytes(&json!({
         "timestamp": time(stamp_ns),
         "frame_id": ODOM_FRAME,
@@ -566,17 +548,6 @@ fn grid(
         "fields": fields,
         "data": base64(&data),
     }))
-}
-
-fn check_grid(len: usize, cells: u32, layers: u32) -> Result<(), BadSample> {
-    let want = (cells as usize)
-        .checked_mul(cells as usize)
-        .and_then(|n| n.checked_mul(layers as usize));
-    if want == Some(len) && len > 0 {
-        Ok(())
-    } else {
-        Err(BadSample::GridSize { len, cells, layers })
-    }
 }
 
 /// `map/plan` as a `foxglove.Grid` with the fields `class` and `cost` (`uint8`).
