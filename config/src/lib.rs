@@ -28,6 +28,7 @@
 //! | `[planner]` | [`mimnav_planner::config::PlannerConfig`] |
 //! | `[foliage]` | [`mimnav_foliage::FoliageParams`] |
 //! | `[kobuki]` | [`mimnav_kobuki::config::KobukiConfig`] |
+//! | `[sick]` | [`mimnav_sick::SickConfig`] |
 //! | `[spot]` | [`SpotConfig`] |
 //! | `[view]` | [`ViewConfig`] |
 //! | `[zenoh]` | [`ZenohConfig`] |
@@ -62,7 +63,9 @@ use mimnav_shared::config::{
 
 use mimnav_foliage::FoliageParams;
 use mimnav_foliage::step::{ScanStep, StepError};
+use mimnav_foliage::ScanSource;
 use mimnav_kobuki::config::KobukiConfig;
+use mimnav_sick::SickConfig;
 use mimnav_mapper::MapperParams;
 use mimnav_mapper::config::MapperConfig;
 use mimnav_mapper::step::MapStep;
@@ -94,6 +97,8 @@ pub struct Config {
     pub foliage: FoliageParams,
     /// `[kobuki]`: the Turtlebot 2's base.
     pub kobuki: KobukiConfig,
+    /// `[sick]`: the SICK planar ladar (`foliage.source = "sick"`).
+    pub sick: SickConfig,
     /// `[spot]`: the Spot bridge.
     pub spot: SpotConfig,
     /// `[view]`: the Foxglove live view.
@@ -135,6 +140,7 @@ struct FileConfig {
     planner: PlannerConfig,
     foliage: FoliageParams,
     kobuki: KobukiConfig,
+    sick: SickConfig,
     spot: SpotConfig,
     view: ViewConfig,
     zenoh: ZenohConfig,
@@ -211,6 +217,7 @@ impl Config {
             planner: file.planner,
             foliage: file.foliage,
             kobuki: file.kobuki,
+            sick: file.sick,
             spot: file.spot,
             view: file.view,
             zenoh: file.zenoh,
@@ -232,6 +239,7 @@ impl Config {
         r.merge(self.planner.validate());
         r.merge(self.foliage.validate());
         r.merge(self.kobuki.validate());
+        r.merge(self.sick.validate());
         r.merge(self.spot.validate());
         r.merge(self.view.validate());
         r.merge(self.zenoh.validate());
@@ -292,10 +300,29 @@ impl Config {
         Pilot::new(self.planner_params())
     }
 
-    /// The foliage classifier's step: `[foliage]` with `robot.mount`.
+    /// The foliage classifier's step: `[foliage]` with `robot.mount` for the VLP-16's scan; a
+    /// SICK's scan comes with its own mount (`sick.mount`) applied by its driver.
     pub fn scan_step(&self) -> Result<ScanStep, StepError> {
         let step = ScanStep::new(self.foliage, seconds_ns(self.foliage.odom_max_age_s))?;
-        Ok(step.with_mount(&self.robot.mount))
+        Ok(match self.foliage.source {
+            ScanSource::Velodyne => step.with_mount(&self.robot.mount),
+            ScanSource::Sick => step,
+        })
+    }
+
+    /// The most returns a `lidar/scan2d` sample (and so a `foliage/alarm` one) holds: the
+    /// VLP-16's longest scan, or the SICK model's field at its finest step.
+    pub fn scan_capacity(&self) -> usize {
+        match self.foliage.source {
+            ScanSource::Velodyne => {
+                let asm = mimnav_velodyne::revolution::AssemblerConfig::from_config(&self.velodyne);
+                mimnav_velodyne::revolution::max_scan_len(
+                    self.velodyne.rpm,
+                    asm.max_duration_ns as f64 * 1e-9,
+                )
+            }
+            ScanSource::Sick => self.sick.max_returns(),
+        }
     }
 }
 

@@ -37,6 +37,9 @@ pub mod return_type {
     pub const LAST: u8 = 2;
     /// Both: in dual mode the two blocks hold the same distance, so the firing had one return.
     pub const BOTH: u8 = STRONGEST | LAST;
+    /// The first (nearest) echo of a multi-echo planar ladar (`sick.echo = "first"`); a SICK
+    /// scan taken with `sick.echo = "last"` carries [`LAST`].
+    pub const FIRST: u8 = 4;
 }
 
 /// One lidar return in the sensor frame (REP-103: x forward, y left, z up; metres).

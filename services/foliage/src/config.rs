@@ -120,6 +120,23 @@ pub struct FoliageParams {
     /// Odometry older than this when a scan arrives is not used to carry earlier scans, s (the
     /// service's step, not the classifier, reads it). Default **0.5 s**.
     pub odom_max_age_s: f64,
+    /// Where the planar scan on `lidar/scan2d` comes from: `"velodyne"` (one laser of the
+    /// VLP-16, `velodyne.scan_laser`; the default) or `"sick"` (a SICK planar ladar through
+    /// `mimnav-sick`, the sensor of the paper). With `"sick"` the VLP-16 driver does not publish
+    /// `lidar/scan2d`, and the scan arrives with the scanner's mounting pose (`sick.mount`)
+    /// already applied, so `robot.mount` is not applied to it.
+    pub source: ScanSource,
+}
+
+/// Which sensor the planar scan comes from (`foliage.source`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScanSource {
+    /// One laser of the VLP-16 (`mimnav-velodyne`).
+    #[default]
+    Velodyne,
+    /// A SICK planar ladar (`mimnav-sick`).
+    Sick,
 }
 
 impl Default for FoliageParams {
@@ -142,6 +159,7 @@ impl Default for FoliageParams {
             carry_scans: 2,
             carry_min_travel_m: 0.03,
             odom_max_age_s: 0.5,
+            source: ScanSource::Velodyne,
         }
     }
 }

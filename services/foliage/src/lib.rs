@@ -156,7 +156,7 @@
 /// The classifier's parameters are the `[foliage]` section of the stack's config, defined here
 /// with their defaults, the paper's values and their checks.
 pub mod config;
-pub use config::{FoliageParams, MAX_CARRY_SCANS, bin_count};
+pub use config::{FoliageParams, MAX_CARRY_SCANS, ScanSource, bin_count};
 
 // One module per routine of the paper (see the table above); the public API is re-exported here,
 // so every item keeps its path `mimnav_foliage::…`.

@@ -16,7 +16,6 @@ use mimnav_shared::hop::record_drops;
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics;
-use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
 
 /// The foliage classifier: lidar/scan2d (+ odom) → foliage/alarm.
 #[derive(Debug, clap::Parser)]
@@ -47,9 +46,8 @@ fn run(config: &Config) -> Result<()> {
     let scans = ipc::scan_subscriber(svc.node())?;
     // the sensor's motion between scans, for the carried scans (interpretation 17); optional
     let odom_sub = ipc::odom_subscriber(svc.node())?;
-    // as long as the driver's longest scan
-    let asm = AssemblerConfig::from_config(&config.velodyne);
-    let max_returns = max_scan_len(config.velodyne.rpm, asm.max_duration_ns as f64 * 1e-9);
+    // as long as the driver's longest scan (the VLP-16's or the SICK's, by foliage.source)
+    let max_returns = config.scan_capacity();
     let alarms = ipc::foliage_publisher(svc.node(), max_returns)?;
     let p = step.params();
     tracing::info!(

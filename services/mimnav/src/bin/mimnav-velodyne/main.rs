@@ -17,6 +17,7 @@ use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
 use mimnav_velodyne::config::VelodyneInput;
 use mimnav_velodyne::driver::Driver;
+use mimnav_foliage::ScanSource;
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
 use mimnav_velodyne::udp::UdpSource;
 
@@ -71,7 +72,10 @@ fn run(config: &Config) -> Result<()> {
     let asm = AssemblerConfig::from_config(&config.velodyne);
     let max_scan = max_scan_len(v.rpm, asm.max_duration_ns as f64 * 1e-9);
     let points = ipc::points_publisher(svc.node(), asm.max_points)?;
-    let scan = ipc::scan_publisher(svc.node(), max_scan)?;
+    // the foliage classifier reads a SICK instead: lidar/scan2d is mimnav-sick's
+    let scan = (config.foliage.source == ScanSource::Velodyne)
+        .then(|| ipc::scan_publisher(svc.node(), max_scan))
+        .transpose()?;
     let packets = (v
         .publish_packets
         .then(|| ipc::packets_publisher(svc.node())))

@@ -12,11 +12,12 @@ use mimnav_shared::topics::RawPacket;
 use mimnav_velodyne::driver::{Driver, Kind};
 use mimnav_velodyne::replay::{Next, Replay};
 
-/// The driver and the topics it publishes on.
+/// The driver and the topics it publishes on (`lidar/scan2d` only when the foliage classifier
+/// reads the VLP-16: `foliage.source = "velodyne"`).
 pub struct Wired(
     pub Driver,
     pub PointsPublisher,
-    pub ScanPublisher,
+    pub Option<ScanPublisher>,
     pub Option<ValuePublisher<RawPacket>>,
 );
 
@@ -45,8 +46,10 @@ impl Wired {
             false => driver.on_datagram(bytes, kind, (host_ns, mono), now, &mut h.faults, source),
         };
         if let Some(rev) = rev {
-            let sent = (points.publish(rev.header, &rev.points))
-                .and(scan.publish(rev.scan_header, &rev.scan));
+            let sent = (points.publish(rev.header, &rev.points)).and(
+                scan.as_ref()
+                    .map_or(Ok(0), |s| s.publish(rev.scan_header, &rev.scan)),
+            );
             if let Err(e) = sent {
                 h.faults.record("publish_failed", now, e);
             }
@@ -126,7 +129,9 @@ pub fn replay(
     h.sd.stopping(what);
     wired.0.log_summary(what, &h.faults);
     wired.1.end_of_stream()?;
-    wired.2.end_of_stream()?;
+    if let Some(scan) = &wired.2 {
+        scan.end_of_stream()?;
+    }
     if !stopped && v.replay_linger_s > 0.0 {
         // let subscribers take the last samples before the publisher goes away
         svc.sleep_until(
