@@ -28,6 +28,8 @@ mod mapper;
 mod python_client;
 /// `mimnav record`: the stack's topics into an MCAP file, read back with PyPI's `mcap`.
 mod record;
+/// The SICK ladar's service against an emulated scanner on a loopback TCP port (issue 26).
+mod sick;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
 /// stack in lock-step is in `lockstep`).
 mod sim;

@@ -23,8 +23,8 @@ use crate::util::{bin_dir, root};
 
 const SERVICES: [&str; 4] = ["velodyne", "mapper", "foliage", "planner"];
 /// Every unit `mimnav install` installs: the stack's services and the bases' (enabled per robot).
-const UNITS: [&str; 8] = [
-    "velodyne", "mapper", "foliage", "planner", "kobuki", "spot", "view", "zenoh",
+const UNITS: [&str; 9] = [
+    "velodyne", "mapper", "foliage", "planner", "kobuki", "spot", "view", "zenoh", "sick",
 ];
 
 /// A temporary folder removed when dropped.

@@ -15,7 +15,7 @@ use std::process::{Command, ExitCode};
 use anyhow::{Context, Result, bail};
 
 /// The services' binaries, which the units start from `/usr/bin`, and the front end.
-pub const BINARIES: [&str; 8] = [
+pub const BINARIES: [&str; 9] = [
     "mimnav-velodyne",
     "mimnav-mapper",
     "mimnav-foliage",
@@ -23,6 +23,7 @@ pub const BINARIES: [&str; 8] = [
     "mimnav-kobuki",
     "mimnav-view",
     "mimnav-zenoh",
+    "mimnav-sick",
     "mimnav",
 ];
 
@@ -31,7 +32,7 @@ pub const BINARIES: [&str; 8] = [
 pub const DEPLOYED_IOX2_ROOT: &str = "/run/mimnav/iceoryx2/";
 
 /// (path under the root, contents) of every unit and entry.
-pub const SYSTEMD_FILES: [(&str, &str); 11] = [
+pub const SYSTEMD_FILES: [(&str, &str); 12] = [
     (
         "usr/lib/systemd/system/mimnav-velodyne.service",
         include_str!("../../../systemd/system/mimnav-velodyne.service"),
@@ -63,6 +64,10 @@ pub const SYSTEMD_FILES: [(&str, &str); 11] = [
     (
         "usr/lib/systemd/system/mimnav-zenoh.service",
         include_str!("../../../systemd/system/mimnav-zenoh.service"),
+    ),
+    (
+        "usr/lib/systemd/system/mimnav-sick.service",
+        include_str!("../../../systemd/system/mimnav-sick.service"),
     ),
     (
         "usr/lib/systemd/system/mimnav.target",
@@ -238,6 +243,11 @@ pub fn run(args: &InstallArgs) -> Result<ExitCode> {
     outln!(
         "the Zenoh bridge (topics for other hosts, remote goals; docs/zenoh.md): set [zenoh] \
          enabled = true in the config, then  systemctl enable mimnav-zenoh.service"
+    )?;
+    outln!(
+        "a SICK planar ladar for the foliage classifier (docs/sick.md): set foliage.source = \
+         \"sick\" and [sick] host, model and mount in the config, then  systemctl enable \
+         mimnav-sick.service"
     )?;
     outln!(
         "start the stack now and at every boot:  systemctl enable --now mimnav.target\n\

@@ -18,6 +18,7 @@
 //! - [`convert`]: a scan's channels as [`mimnav_shared::topics::ScanReturn`]s, in REP-103 and
 //!   moved by the scanner's mounting pose: the contract the foliage classifier reads;
 //! - [`status`]: the device status bytes named;
+//! - [`link`]: the TCP connection kept up (connect, the session, back-off), the only I/O;
 //! - [`device`]: the other end: an emulated scanner, for the simulator and the tests.
 //!
 //! ```
@@ -58,6 +59,7 @@ pub mod command;
 pub mod config;
 pub mod convert;
 pub mod device;
+pub mod link;
 pub mod scandata;
 pub mod session;
 pub mod status;
