@@ -15,6 +15,7 @@ case "$target" in
   velodyne_stream) max_len=16384 ;;   # a window of 12 datagrams of a real capture
   capture) max_len=32768 ;;           # the seeds: 24 KiB heads of the real captures
   kobuki_frames) max_len=4096 ;;      # about 45 feedback frames, under a second of the base
+  sick_cola) max_len=20000 ;;         # an LMS5xx telegram with five echoes is 17 kB in CoLa-B
   *) max_len=16384 ;;                 # the config and world files are under 8 KiB
 esac
 # -s none: no sanitizer (safe Rust; ASan halves the rate); -a: debug assertions and overflow

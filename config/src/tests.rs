@@ -171,6 +171,8 @@ fn shipped_config_holds_the_defaults() {
     assert_eq!(c.foliage, d.foliage);
     assert_eq!(c.latency, d.latency);
     assert_eq!(c.zenoh, d.zenoh);
+    assert_eq!(c.sick, d.sick);
+    assert_eq!(c.kobuki, d.kobuki);
     for profile in ["spot", "turtlebot2"] {
         let c = Config::load(&path, &[format!("robot.profile=\"{profile}\"")]).expect("profile");
         assert_eq!(c.robot.name, profile);

@@ -27,12 +27,13 @@ use mimnav_velodyne::driver::Driver;
 use mimnav_velodyne::revolution::{AssemblerConfig, Revolution};
 
 /// The fuzz targets, by the name of their file in `fuzz/fuzz_targets/`.
-pub const TARGETS: [&str; 5] = [
+pub const TARGETS: [&str; 6] = [
     "velodyne_stream",
     "capture",
     "config",
     "world",
     "kobuki_frames",
+    "sick_cola",
 ];
 
 /// Runs the body of target `name` on `data`.
@@ -43,6 +44,7 @@ pub fn run(name: &str, data: &[u8]) {
         "config" => config(data),
         "world" => world(data),
         "kobuki_frames" => kobuki_frames(data),
+        "sick_cola" => sick_cola(data),
         _ => panic!("no fuzz target {name}"),
     }
 }
@@ -373,6 +375,176 @@ fn kobuki_seeds() -> Vec<(String, Vec<u8>)> {
     .collect()
 }
 
+/// The SICK driver's session over a CoLa byte stream cut into chunks: the framer (CoLa-A or
+/// CoLa-B), the answers to the start-up requests, `LMDscandata` parsing and the conversion to
+/// returns.
+///
+/// Input: a flags byte (bit 7: CoLa-B; bit 6: the LMS5xx's start-up requests are pending, else
+/// none; low 4 bits: `k`), then `k` chunk sizes (a byte each, 0 read as 256), then the stream.
+/// Asserts: the events are the same whatever the chunking (but for how bytes outside any
+/// telegram are reported: each piece of them as it arrives); at most one telegram's bytes are
+/// held; every scan parsed has at most [`mimnav_sick::scandata::MAX_CHANNELS`] channels of at
+/// most [`mimnav_sick::scandata::MAX_VALUES`] values, writes back to a telegram that parses to
+/// the same scan, and converts to one return per value with a finite bearing in (−π, π] and a
+/// finite range that is 0 or within the configured limits.
+pub fn sick_cola(data: &[u8]) {
+    use mimnav_sick::SickConfig;
+    use mimnav_sick::cola::Dialect;
+    use mimnav_sick::config::Model;
+    use mimnav_sick::scandata::{MAX_CHANNELS, MAX_VALUES, ScanData};
+    use mimnav_sick::session::{Event, Session};
+
+    let Some((&head, rest)) = data.split_first() else {
+        return;
+    };
+    let dialect = if head & 0x80 != 0 {
+        Dialect::ColaB
+    } else {
+        Dialect::ColaA
+    };
+    let cfg = SickConfig {
+        protocol: dialect,
+        model: Model::Lms5xx,
+        max_telegram_bytes: 64 * 1024,
+        ..SickConfig::default()
+    };
+    let mut sc = cfg.session();
+    if head & 0x40 == 0 {
+        sc.requests.clear();
+    }
+    let k = usize::from(head & 0x0F).min(rest.len());
+    let (cuts, stream) = rest.split_at(k);
+    let cuts: Vec<usize> = if cuts.is_empty() {
+        vec![stream.len().max(1)]
+    } else {
+        cuts.iter()
+            .map(|&c| if c == 0 { 256 } else { usize::from(c) })
+            .collect()
+    };
+    let conv = cfg.converter();
+    let mut returns = Vec::new();
+    let mut run = |pieces: &mut dyn Iterator<Item = &[u8]>| {
+        let mut s = Session::new(sc.clone());
+        let mut out = Vec::new();
+        s.begin(0, &mut out);
+        let mut events = Vec::new();
+        for p in pieces {
+            s.receive(p, 1, &mut out, |e| {
+                if let Event::Scan(sd) = &e {
+                    let chans = sd.channels();
+                    assert!(chans.len() <= MAX_CHANNELS);
+                    assert!(chans.iter().all(|c| c.values.len() <= MAX_VALUES));
+                    let mut wire = Vec::new();
+                    sd.encode(dialect, b"sSN", &mut wire);
+                    let mut back = ScanData::default();
+                    back.parse(dialect, &wire)
+                        .expect("a scan written back parses");
+                    assert_eq!(&back, *sd, "a scan written back parses to itself");
+                    if let Ok(c) = conv.convert(sd, &mut returns) {
+                        assert_eq!(c.count, returns.len());
+                        for r in &returns {
+                            let a = r.angle_rad;
+                            assert!(a.is_finite() && a > -std::f32::consts::PI - 1e-6);
+                            assert!(a <= std::f32::consts::PI + 1e-6, "{a}");
+                            assert!(
+                                r.range_m == 0.0
+                                    || (r.range_m >= conv.min_range_m - 1e-3
+                                        && r.range_m.is_finite())
+                            );
+                        }
+                    }
+                }
+                if !matches!(e, Event::Frame(mimnav_sick::cola::FrameError::Garbage(_))) {
+                    events.push(format!("{e:?}"));
+                }
+            });
+            assert!(s.frame_stats().telegrams <= stream.len() as u64);
+            assert!(
+                s.pending() <= cfg.max_telegram_bytes,
+                "{} bytes held",
+                s.pending()
+            );
+        }
+        (events, s.stats().scans, out)
+    };
+    let mut left = stream;
+    let mut i = 0;
+    let mut chunks = Vec::new();
+    while !left.is_empty() {
+        let (chunk, tail) = left.split_at(cuts[i % cuts.len()].min(left.len()));
+        chunks.push(chunk);
+        i += 1;
+        left = tail;
+    }
+    let (a, sa, oa) = run(&mut chunks.iter().copied());
+    let (b, sb, ob) = run(&mut std::iter::once(stream));
+    assert_eq!(a, b, "the events depend on the chunking");
+    assert_eq!((sa, oa), (sb, ob));
+}
+
+/// Seeds of [`sick_cola`]: the real telegrams of `../shared/data/sick` (when there), an
+/// emulated LMS5xx's answers and multi-echo scans in both dialects, damaged and cut.
+fn sick_seeds() -> Vec<(String, Vec<u8>)> {
+    use mimnav_sick::cola::Dialect;
+    use mimnav_sick::config::Model;
+    use mimnav_sick::device::Device;
+    use mimnav_sick::session::Session;
+
+    let mut v = Vec::new();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sick");
+    for f in [
+        "tim5xx_single_scan.cola",
+        "tim5xx_continuous_scan.cola",
+        "lms1xx_scan.cola",
+    ] {
+        if let Ok(b) = std::fs::read(dir.join(f)) {
+            let mut s = vec![0x02, 7, 200];
+            s.extend(&b);
+            v.push((format!("real-{f}"), s));
+        }
+    }
+    for (bit, d) in [(0u8, Dialect::ColaA), (0x80, Dialect::ColaB)] {
+        let cfg = mimnav_sick::SickConfig {
+            protocol: d,
+            model: Model::Lms5xx,
+            ..mimnav_sick::SickConfig::default()
+        };
+        let mut dev = Device::new(Model::Lms5xx, d, 7);
+        let mut s = Session::new(cfg.session());
+        let (mut to_dev, mut answers) = (Vec::new(), Vec::new());
+        s.begin(0, &mut to_dev);
+        for _ in 0..8 {
+            let mut a = Vec::new();
+            dev.receive(&std::mem::take(&mut to_dev), &mut a);
+            s.receive(&a, 0, &mut to_dev, |_| {});
+            answers.extend(a);
+        }
+        // a short scan keeps the seeds small: 60 values an echo
+        let g = dev.geometry();
+        let echoes: Vec<Vec<u16>> = (0..3)
+            .map(|e| {
+                (0..g.count)
+                    .map(|i| (1000 + 300 * e + i % 97) as u16)
+                    .collect()
+            })
+            .collect();
+        let mut scan = Vec::new();
+        dev.scan_telegram(1234, &echoes, &echoes, &mut scan);
+        let name = d.name();
+        let mut whole = vec![bit | 0x40 | 2, 13, 1];
+        whole.extend(&answers);
+        whole.extend(&scan[..scan.len().min(4000)]);
+        v.push((format!("{name}-answers-and-scan"), whole));
+        let mut damaged = vec![bit, 0];
+        damaged.extend(b"xx");
+        damaged.extend(&scan);
+        let n = damaged.len();
+        damaged[n / 3] ^= 0x11;
+        v.push((format!("{name}-damaged"), damaged));
+    }
+    v
+}
+
 /// `../shared/data/velodyne` beside the repository, where the real captures are.
 pub fn captures_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/velodyne")
@@ -410,6 +582,7 @@ pub fn seeds(name: &str) -> Vec<(String, Vec<u8>)> {
         "config" => config_seeds(),
         "world" => world_seeds(),
         "kobuki_frames" => kobuki_seeds(),
+        "sick_cola" => sick_seeds(),
         _ => panic!("no fuzz target {name}"),
     }
 }

@@ -74,3 +74,8 @@ fn smoke_world() {
 fn smoke_kobuki_frames() {
     smoke("kobuki_frames", 400_000, false);
 }
+
+#[test]
+fn smoke_sick_cola() {
+    smoke("sick_cola", 200_000, false);
+}

@@ -116,6 +116,12 @@ impl Session {
         self.framer.stats()
     }
 
+    /// Bytes held, waiting for the rest of a telegram (never more than the longest telegram
+    /// accepted once [`Session::receive`] returns).
+    pub fn pending(&self) -> usize {
+        self.framer.pending()
+    }
+
     /// True once every start-up request is answered.
     pub fn streaming(&self) -> bool {
         self.step >= self.cfg.requests.len()
