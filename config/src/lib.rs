@@ -62,16 +62,16 @@ use mimnav_shared::config::{
 };
 
 use mimnav_foliage::FoliageParams;
-use mimnav_foliage::step::{ScanStep, StepError};
 use mimnav_foliage::ScanSource;
+use mimnav_foliage::step::{ScanStep, StepError};
 use mimnav_kobuki::config::KobukiConfig;
-use mimnav_sick::SickConfig;
 use mimnav_mapper::MapperParams;
 use mimnav_mapper::config::MapperConfig;
 use mimnav_mapper::step::MapStep;
 use mimnav_planner::PlannerParams;
 use mimnav_planner::config::PlannerConfig;
 use mimnav_planner::pilot::Pilot;
+use mimnav_sick::SickConfig;
 use mimnav_sim::SimSettings;
 use mimnav_sim::config::SimConfig;
 use mimnav_velodyne::config::VelodyneConfig;

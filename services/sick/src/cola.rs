@@ -207,7 +207,10 @@ impl Framer {
             }
             None if held.len() > self.max => {
                 // no ETX within the limit: drop what is held up to the next STX
-                let n = body.iter().position(|&b| b == STX).map_or(held.len(), |i| i + 1);
+                let n = body
+                    .iter()
+                    .position(|&b| b == STX)
+                    .map_or(held.len(), |i| i + 1);
                 self.start += n;
                 self.stats.oversize += 1;
                 Some(Err(FrameError::Oversize {
@@ -229,7 +232,13 @@ impl Framer {
         if held[..m] != COLA_B_MAGIC[..m] {
             let n = find_magic(held).unwrap_or_else(|| {
                 // keep a tail that may be the magic's beginning
-                held.len() - held.iter().rev().take(3).take_while(|&&b| b == 0x02).count()
+                held.len()
+                    - held
+                        .iter()
+                        .rev()
+                        .take(3)
+                        .take_while(|&&b| b == 0x02)
+                        .count()
             });
             let n = n.max(1);
             return Some(Err(self.garbage(n)));
@@ -318,7 +327,10 @@ mod tests {
             f.push(&wire[cut..]);
             got.extend(all(&mut f));
             let ok: Vec<Vec<u8>> = got.into_iter().map(|r| r.expect("good")).collect();
-            assert_eq!(ok, vec![b"sAN Run 1".to_vec(), b"sEA LMDscandata 1".to_vec()]);
+            assert_eq!(
+                ok,
+                vec![b"sAN Run 1".to_vec(), b"sEA LMDscandata 1".to_vec()]
+            );
         }
     }
 

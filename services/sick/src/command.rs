@@ -302,10 +302,7 @@ mod tests {
             remission: true,
             remission_16bit: false,
         };
-        assert_eq!(
-            text(out),
-            "sWN LMDscandatacfg 01 00 1 0 0 00 00 0 0 0 0 +1"
-        );
+        assert_eq!(text(out), "sWN LMDscandatacfg 01 00 1 0 0 00 00 0 0 0 0 +1");
         assert_eq!(text(Request::Stream(true)), "sEN LMDscandata 1");
         assert_eq!(text(Request::Run), "sMN Run");
     }
@@ -338,7 +335,10 @@ mod tests {
     #[test]
     fn answers_parse_in_both_dialects() {
         let a = Answer::parse(Dialect::ColaA, b"sAN SetAccessMode 1").expect("answer");
-        assert_eq!((a.kind_str(), a.name.as_str(), a.first), ("sAN", "SetAccessMode", Some(1)));
+        assert_eq!(
+            (a.kind_str(), a.name.as_str(), a.first),
+            ("sAN", "SetAccessMode", Some(1))
+        );
         let a = Answer::parse(Dialect::ColaB, b"sEA LMDscandata \x01").expect("answer");
         assert_eq!((a.name.as_str(), a.first), ("LMDscandata", Some(1)));
         let a = Answer::parse(Dialect::ColaA, b"sFA A").expect("error");

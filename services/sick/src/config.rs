@@ -322,7 +322,12 @@ mod tests {
             lms5.start_requests().as_slice(),
             [
                 Request::Login { .. },
-                Request::ScanConfig { frequency: 2500, resolution: 1667, start: -50_000, stop: 1_850_000 },
+                Request::ScanConfig {
+                    frequency: 2500,
+                    resolution: 1667,
+                    start: -50_000,
+                    stop: 1_850_000
+                },
                 Request::OutputConfig { .. },
                 Request::EchoFilter(1),
                 Request::Run,
@@ -340,7 +345,10 @@ mod tests {
         };
         let e = c.validate().expect_err("LMS1xx has no 50 Hz at 0.25°");
         let m = e.to_string();
-        assert!(m.contains("sick.frequency_hz") && m.contains("25 Hz at 0.2500°"), "{m}");
+        assert!(
+            m.contains("sick.frequency_hz") && m.contains("25 Hz at 0.2500°"),
+            "{m}"
+        );
         let tim = SickConfig {
             model: Model::Tim5xx,
             configure: true,

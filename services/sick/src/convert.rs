@@ -84,7 +84,9 @@ pub enum ConvertError {
     #[error("LMDscandata without a DIST1 channel (channels: {0})")]
     NoDistance(String),
     /// A distance channel whose angles or count differ from `DIST1`'s.
-    #[error("{name} has {count} values from {start} step {step}, DIST1 {count1} from {start1} step {step1}")]
+    #[error(
+        "{name} has {count} values from {start} step {step}, DIST1 {count1} from {start1} step {step1}"
+    )]
     Mismatch {
         /// The channel.
         name: String,
@@ -194,7 +196,11 @@ impl Converter {
                     intensity = ri.map_or(0, |j| {
                         let rc = &chans[j];
                         let v = rc.values[idx];
-                        if rc.bits == 16 { (v >> 8) as u8 } else { v.min(255) as u8 }
+                        if rc.bits == 16 {
+                            (v >> 8) as u8
+                        } else {
+                            v.min(255) as u8
+                        }
                     });
                     break;
                 }
@@ -295,8 +301,14 @@ mod tests {
         // device 45° = 45° right of the scanner's forward = 45° left of the robot's
         let r = out[18];
         let (x, y) = (r.range_m * r.angle_rad.cos(), r.range_m * r.angle_rad.sin());
-        let want = (0.5 + 1000e-3 * 45f32.to_radians().cos(), 45f32.to_radians().sin());
-        assert!((x - want.0).abs() < 1e-5 && (y - want.1).abs() < 1e-5, "{x} {y}");
+        let want = (
+            0.5 + 1000e-3 * 45f32.to_radians().cos(),
+            45f32.to_radians().sin(),
+        );
+        assert!(
+            (x - want.0).abs() < 1e-5 && (y - want.1).abs() < 1e-5,
+            "{x} {y}"
+        );
         assert_eq!(out[0].range_m, 0.0, "no echo stays no return");
     }
 

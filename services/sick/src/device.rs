@@ -156,7 +156,8 @@ impl Device {
             a.text("sAN mLMPsetscancfg").u(code, 1);
             a.u(u64::from(self.frequency), 4).u(1, 2);
             a.u(u64::from(self.resolution), 4);
-            a.u(self.start as u32 as u64, 4).u(self.stop as u32 as u64, 4);
+            a.u(self.start as u32 as u64, 4)
+                .u(self.stop as u32 as u64, 4);
         } else if is(b"sWN LMDscandatacfg") {
             if !self.logged_in {
                 return Reply::new(d).text("sFA").code(0x0A).done();
@@ -286,7 +287,11 @@ fn read_args(d: Dialect, rest: &[u8], sizes: &[usize]) -> Option<Vec<i64>> {
             for &n in sizes {
                 let (x, tail) = (b.get(..n)?, b.get(n..)?);
                 let u = x.iter().fold(0i64, |a, &y| a << 8 | i64::from(y));
-                v.push(if n == 4 { i64::from(u as u32 as i32) } else { u });
+                v.push(if n == 4 {
+                    i64::from(u as u32 as i32)
+                } else {
+                    u
+                });
                 b = tail;
             }
             Some(v)
@@ -405,16 +410,25 @@ mod tests {
     fn a_wrong_password_or_mode_is_refused_by_the_device() {
         let mut dev = Device::new(Model::Lms1xx, Dialect::ColaA, 1);
         let mut out = Vec::new();
-        dev.receive(b"\x02sMN mLMPsetscancfg +5000 +1 +2500 -450000 +2250000\x03", &mut out);
+        dev.receive(
+            b"\x02sMN mLMPsetscancfg +5000 +1 +2500 -450000 +2250000\x03",
+            &mut out,
+        );
         assert_eq!(out, b"\x02sFA 1\x03");
         out.clear();
         dev.receive(b"\x02sMN SetAccessMode 03 12345678\x03", &mut out);
         assert_eq!(out, b"\x02sAN SetAccessMode 0\x03");
         out.clear();
         dev.receive(b"\x02sMN SetAccessMode 03 F4724744\x03", &mut out);
-        dev.receive(b"\x02sMN mLMPsetscancfg +5000 +1 +2500 -450000 +2250000\x03", &mut out);
+        dev.receive(
+            b"\x02sMN mLMPsetscancfg +5000 +1 +2500 -450000 +2250000\x03",
+            &mut out,
+        );
         let text = String::from_utf8_lossy(&out).into_owned();
-        assert!(text.ends_with("\x02sAN mLMPsetscancfg 2 9C4 1 9C4 FFF92230 225510\x03"), "{text}");
+        assert!(
+            text.ends_with("\x02sAN mLMPsetscancfg 2 9C4 1 9C4 FFF92230 225510\x03"),
+            "{text}"
+        );
         assert_eq!(dev.geometry().count, 1081);
     }
 }

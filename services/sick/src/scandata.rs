@@ -556,7 +556,10 @@ impl<'a> FieldsB<'a> {
                 "truncated",
                 field,
                 at,
-                format!("the telegram ends {} bytes into this field", self.b.len() - at),
+                format!(
+                    "the telegram ends {} bytes into this field",
+                    self.b.len() - at
+                ),
             )
         })?;
         self.pos += N;

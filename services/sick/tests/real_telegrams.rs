@@ -49,11 +49,10 @@ fn table(dir: &Path) -> Vec<Row> {
         let unquote = |s: &str| s.split('`').nth(1).unwrap_or("").to_string();
         // "same device": the row above's serial
         let serial = match cells[2].split("0x").nth(1) {
-            Some(h) => u32::from_str_radix(
-                h.trim_end_matches(|c: char| !c.is_ascii_hexdigit()),
-                16,
-            )
-            .expect("hex serial"),
+            Some(h) => {
+                u32::from_str_radix(h.trim_end_matches(|c: char| !c.is_ascii_hexdigit()), 16)
+                    .expect("hex serial")
+            }
             None if cells[2].contains("same device") => rows.last().expect("a row above").serial,
             None => panic!("no serial in {:?}", cells[2]),
         };
@@ -105,7 +104,12 @@ fn the_readmes_table_matches_every_decoded_telegram() {
         assert_eq!(names, row.channels, "{}", row.file);
         for c in s.channels() {
             assert_eq!(c.values.len(), row.points, "{} {}", row.file, c.name_str());
-            assert_eq!(f64::from(c.start_angle) * 1e-4, row.start_deg, "{}", row.file);
+            assert_eq!(
+                f64::from(c.start_angle) * 1e-4,
+                row.start_deg,
+                "{}",
+                row.file
+            );
             assert_eq!(f64::from(c.step) * 1e-4, row.step_deg, "{}", row.file);
             assert_eq!((c.scale, c.offset), (1.0, 0.0), "{}", row.file);
         }
@@ -162,7 +166,11 @@ fn conversion_to_rep103_puts_the_first_value_behind_right() {
     let raw = lms.channel(b"DIST1").expect("DIST1");
     let no_echo = raw.values.iter().filter(|&&v| v < 50 || v > 20_000).count();
     assert!(raw.values.iter().filter(|&&v| v <= 3).count() > 0);
-    assert_eq!(c.count - c.valid, no_echo, "0–3 mm and beyond the range are no return");
+    assert_eq!(
+        c.count - c.valid,
+        no_echo,
+        "0–3 mm and beyond the range are no return"
+    );
 }
 
 #[test]

@@ -11,13 +11,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use mimnav_config::Config;
+use mimnav_foliage::ScanSource;
 use mimnav_shared::config::toml_quote;
 use mimnav_shared::ipc;
 use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
 use mimnav_velodyne::config::VelodyneInput;
 use mimnav_velodyne::driver::Driver;
-use mimnav_foliage::ScanSource;
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
 use mimnav_velodyne::udp::UdpSource;
 
