@@ -29,7 +29,7 @@ mod python_client;
 /// `mimnav record`: the stack's topics into an MCAP file, read back with PyPI's `mcap`.
 mod record;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
-/// stack in lock-step is in `lockstep`).
+/// stack in lock-step is in `lockstep`); its simulated SICK served over TCP.
 mod sim;
 /// The Spot bridge (`clients/python/mimnav_spot.py`) against a fake Spot made of `bosdyn-api`'s
 /// servicers (issue 24).

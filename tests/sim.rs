@@ -138,3 +138,125 @@ fn lockstep_waits_for_the_stack_and_follows_its_commands() {
     );
     assert!(answered >= 28, "{answered}");
 }
+
+/// A loopback TCP port free right now.
+fn free_tcp_port() -> u16 {
+    let s = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+    s.local_addr().expect("addr").port()
+}
+
+/// Drives the SICK driver's session over `stream` until `want` scans came (or `within`
+/// passed): the ranges straight ahead (bearing within ±0.5°) of each scan.
+fn sick_scans(
+    stream: &mut std::net::TcpStream,
+    sick: &mimnav_sick::SickConfig,
+    want: usize,
+    within: Duration,
+) -> Vec<Vec<f32>> {
+    use mimnav_sick::session::{Event, Session};
+    use std::io::{Read, Write};
+    let t0 = Instant::now();
+    let now = || t0.elapsed().as_nanos() as u64;
+    let mut session = Session::new(sick.session());
+    let mut out = Vec::new();
+    session.begin(now(), &mut out);
+    let (conv, mut returns, mut ahead) = (sick.converter(), Vec::new(), Vec::new());
+    let mut buf = vec![0u8; 64 * 1024];
+    stream
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .expect("timeout");
+    while ahead.len() < want && t0.elapsed() < within {
+        if !out.is_empty() {
+            stream.write_all(&out).expect("write the requests");
+            out.clear();
+        }
+        let n = match stream.read(&mut buf) {
+            Ok(0) => panic!("the simulator closed the connection"),
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue;
+            }
+            Err(e) => panic!("read: {e}"),
+        };
+        session.receive(&buf[..n], now(), &mut out, |e| match e {
+            Event::Scan(sd) => {
+                conv.convert(sd, &mut returns).expect("converts");
+                let r: Vec<f32> = (returns.iter())
+                    .filter(|r| r.angle_rad.to_degrees().abs() <= 0.5)
+                    .map(|r| r.range_m)
+                    .collect();
+                assert_eq!(returns.len(), 1081, "an LMS1xx's scan at 0.25°");
+                ahead.push(r);
+            }
+            Event::Refused { request, why } => panic!("{request:?} refused: {why}"),
+            Event::BadScan(e) => panic!("bad scan: {e}"),
+            _ => {}
+        });
+    }
+    ahead
+}
+
+#[test]
+fn the_simulator_serves_a_sick_to_the_drivers_session_over_tcp() {
+    // the simulated LMS1xx of sim.sick on a loopback port; the SICK driver's session (the
+    // library mimnav-sick runs) logs in, configures the scan and streams over a real socket
+    let domain = PrivateDomain::new("e2e-sick");
+    let (dp, pp, port) = (free_udp_port(), free_udp_port(), free_tcp_port());
+    let mut args = stack_args(&domain, dp, pp);
+    for s in ["sim.sick=true".to_string(), format!("sim.sick_port={port}")] {
+        args.extend(["--set".to_string(), s]);
+    }
+    let world = root().join("config/worlds/one_wall.toml");
+    let mut sim = Proc::start(
+        Command::new(bin("mimnav-sim"))
+            .args(&args)
+            .arg("--world")
+            .arg(&world)
+            .args(["--seconds", "8"]),
+    );
+    let connect = || {
+        let until = Instant::now() + Duration::from_secs(10);
+        loop {
+            match std::net::TcpStream::connect(("127.0.0.1", port)) {
+                Ok(s) => return s,
+                Err(e) if Instant::now() < until => {
+                    let _ = e;
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                Err(e) => panic!("the simulated SICK does not listen on {port}: {e}"),
+            }
+        }
+    };
+    let sick = mimnav_sick::SickConfig::default();
+    let mut first = connect();
+    let scans = sick_scans(&mut first, &sick, 10, Duration::from_secs(6));
+    assert!(scans.len() >= 10, "{} scans", scans.len());
+    // the wall across the path 4 m ahead, straight ahead (bearing 0 in REP-103)
+    for ahead in &scans {
+        assert!(!ahead.is_empty());
+        for r in ahead {
+            assert!((r - 4.0).abs() < 0.08, "{r} m ahead, the wall is at 4 m");
+        }
+    }
+    // a client that goes away mid-stream does not stop the simulator; the next one logs in
+    // and streams afresh
+    drop(first);
+    std::thread::sleep(Duration::from_millis(200));
+    let mut second = connect();
+    let again = sick_scans(&mut second, &sick, 5, Duration::from_secs(5));
+    assert!(
+        again.len() >= 5,
+        "{} scans on the second connection",
+        again.len()
+    );
+    drop(second);
+    let status = sim
+        .wait(Duration::from_secs(20))
+        .expect("the simulator ends after 8 s");
+    assert!(status.success(), "{status}");
+}
