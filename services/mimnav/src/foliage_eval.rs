@@ -365,6 +365,7 @@ impl Scorer {
     /// Scores one classified scan: `scan[i]` was measured along the beam whose truth is
     /// `truth[i]` and classed `verdict[i]`; `alarm` is the verdict's flag and `pose` the robot's
     /// position when the scan was taken.
+    #[allow(clippy::too_many_arguments)]
     fn score(
         &mut self,
         episode: &mut Episode,
