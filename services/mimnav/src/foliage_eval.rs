@@ -827,6 +827,13 @@ pub fn run(
             configs.push(c);
         }
     }
+    // the classifier runs as the stack with this scanner runs it (foliage.source)
+    for c in &mut configs {
+        c.foliage.source = match args.sensor {
+            Sensor::Velodyne => ScanSource::Velodyne,
+            Sensor::Sick => ScanSource::Sick,
+        };
+    }
     let mut speeds = Vec::new();
     for c in &configs {
         let top = c.robot.max_linear_mps;
@@ -924,7 +931,7 @@ pub fn run(
             }
         }
     }
-    let p = config.foliage;
+    let p = configs[0].foliage_params();
     let scanner = match args.sensor {
         Sensor::Velodyne => format!(
             "VLP-16 laser {} ({})",
@@ -948,7 +955,7 @@ pub fn run(
         }
     };
     outln!(
-        "{} seeds (from seed {}) × {} scans per world, robot and motion; {scanner}, d = [{}, {}] m, window {}°; moving: straight at {}",
+        "{} seeds (from seed {}) × {} scans per world, robot and motion; {scanner}, d = [{}, {}] m, window {:.2}°; moving: straight at {}",
         args.seeds,
         args.first_seed,
         args.scans,
