@@ -265,6 +265,13 @@ fn foliage_eval_with_the_simulated_sick_alarms_on_a_trunk_and_not_on_grass() {
         (Some(20), Some(0)),
         "{rock}"
     );
+    // deterministic per seed, whatever the threads
+    let args = [
+        "--sensor", "sick", "--scans", "20", "--motion", "standing", "--jobs", "2",
+    ];
+    let (again, _, ok) = foliage_eval("obstacles_clear", &args);
+    assert!(ok);
+    assert_eq!(json_lines(&again), episodes);
     // dense grass taller than the scan plane, standing and driving through it: no alarm, in
     // the LMS1xx's figure and the TiM5xx's (1° steps, its window widened to 1°)
     for model in ["lms1xx", "tim5xx"] {

@@ -403,6 +403,38 @@ mod tests {
     }
 
     #[test]
+    fn the_sim_idles_without_the_vlp16_and_scans_from_its_pose() {
+        let wall = scene("[[wall]]\nfrom = [5.0, -20.0]\nto = [5.0, 20.0]\n");
+        let mut sim = crate::Sim::new(wall, crate::SimSettings::default(), 1, 0);
+        sim.set_command(0.5, 0.0);
+        for _ in 0..50 {
+            sim.idle(40_000_000);
+        }
+        // 2 s at up to 0.5 m/s, from rest
+        let x = sim.base().pose.x();
+        assert!((0.5..=1.0).contains(&x), "{x}");
+        assert_eq!(sim.now_ns(), 2_000_000_000);
+        assert_eq!(sim.revolutions(), 0);
+        let sick = SickConfig::default();
+        let g = Device::new(sick.model, sick.protocol, 1).geometry();
+        let mut scanner = SickScanner::new(&sick, &sim.settings().sim, 1);
+        let mut scan = SickScan::default();
+        sim.sick_scan(&mut scanner, &g, &mut scan);
+        let mut beams = Vec::new();
+        sim.sick_beams(&scanner, &g, &mut beams);
+        assert_eq!(beams.len(), g.count);
+        // straight ahead: the middle measurement (device 90°)
+        let mid = g.count / 2;
+        assert!(beams[mid].dir[0] > 0.9999 && beams[mid].azimuth_deg.abs() < 1e-9);
+        let r = f64::from(scan.echoes[0][mid]) / 1000.0;
+        assert!(
+            (r - (5.0 - x)).abs() < 0.06,
+            "{r} m, the wall is {} m ahead",
+            5.0 - x
+        );
+    }
+
+    #[test]
     fn scans_follow_the_seed() {
         let grass = scene(
             "[[grass]]\ncenter = [4.0, 0.0]\nsize = [6.0, 20.0]\nheight = 1.0\ndensity = 3.0\nreflectivity = 20\n",
