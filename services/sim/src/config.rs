@@ -31,6 +31,18 @@ impl SimReturnMode {
     }
 }
 
+/// Which echo of a beam a simulated one-echo SICK (LMS1xx, TiM) reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SickEcho {
+    /// The strongest echo (as the VLP-16 in strongest mode).
+    Strongest,
+    /// The nearest echo.
+    First,
+    /// The farthest echo (through foliage, the surface behind it).
+    Last,
+}
+
 /// How the simulated robot's base meets the stack.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -95,6 +107,9 @@ pub struct SimConfig {
     pub sick_bind: IpAddr,
     /// Its TCP port (a SICK's CoLa port is 2111).
     pub sick_port: u16,
+    /// The echo a simulated one-echo SICK (LMS1xx, TiM) reports of each beam: `strongest`,
+    /// `first` or `last` (an LMS5xx reports them all; [`crate::sick`]).
+    pub sick_echo: SickEcho,
     /// A client that has not taken what was sent to it for this long is dropped (it never
     /// holds the simulator up), s.
     pub sick_stall_s: f64,
@@ -121,6 +136,7 @@ impl Default for SimConfig {
             sick: false,
             sick_bind: IpAddr::from([127, 0, 0, 1]),
             sick_port: 2111,
+            sick_echo: SickEcho::Strongest,
             sick_stall_s: 1.0,
         }
     }

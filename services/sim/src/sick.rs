@@ -13,7 +13,9 @@
 //! `sim.range_noise_m`; the distances are sent in whole millimetres.
 //!
 //! **Echoes.** A model with one echo (LMS1xx, TiM) reports the beam's strongest echo, as the
-//! simulated VLP-16 does in strongest mode. An LMS5xx reports up to five, nearest first: the
+//! simulated VLP-16 does in strongest mode (`sim.sick_echo = "first"` or `"last"` for the
+//! nearest or the farthest instead; which one a real scanner's single channel carries depends on
+//! its echo setting, and through grass it decides what is seen behind the blades). An LMS5xx reports up to five, nearest first: the
 //! nearest four and the last (so the surface behind foliage is always among them), and the
 //! device sends them all or the last as its echo filter says. Remission is the echo's intensity
 //! (the material model's 0–255 reflectivity units) as an 8-bit value. A measurement without an
@@ -34,9 +36,9 @@ use mimnav_shared::pose::{Pose2, Pose2Ext, pose2};
 use mimnav_sick::device::Geometry;
 use mimnav_sick::{Model, SickConfig};
 
-use crate::config::SimConfig;
+use crate::config::{SickEcho, SimConfig};
 use crate::lidar::Beam;
-use crate::physics::{BeamCaster, Echo, strongest};
+use crate::physics::{BeamCaster, Echo, last, strongest};
 use crate::world::Scene;
 
 /// How far off a beam may pass an object's bounding circle and still be tested, m.
@@ -181,7 +183,16 @@ impl SickScanner {
                     .copied(),
             );
             if channels == 1 {
-                if let Some(e) = strongest(&self.echoes) {
+                let pick = match self.physics.sick_echo {
+                    SickEcho::Strongest => strongest(&self.echoes),
+                    SickEcho::Last => last(&self.echoes),
+                    SickEcho::First => self
+                        .echoes
+                        .iter()
+                        .copied()
+                        .min_by(|a, b| a.range.total_cmp(&b.range)),
+                };
+                if let Some(e) = pick {
                     (out.echoes[0][i], out.remission[0][i]) = record(&e);
                 }
                 continue;
@@ -245,6 +256,15 @@ mod tests {
     /// One scan of `scene` from the start, through the emulated device's telegram and the
     /// driver's session (after its start-up exchange) and conversion.
     fn returns(sick: &SickConfig, scene: &Scene, seed: u64) -> Vec<ScanReturn> {
+        returns_with(sick, scene, seed, SickEcho::Strongest)
+    }
+
+    fn returns_with(
+        sick: &SickConfig,
+        scene: &Scene,
+        seed: u64,
+        echo: SickEcho,
+    ) -> Vec<ScanReturn> {
         let mut dev = Device::new(sick.model, sick.protocol, 1);
         let mut session = Session::new(sick.session());
         let (mut to_dev, mut to_drv) = (Vec::new(), Vec::new());
@@ -257,7 +277,11 @@ mod tests {
         }
         assert!(session.streaming() && dev.streaming());
         let g = dev.geometry();
-        let mut scanner = SickScanner::new(sick, &SimConfig::default(), seed);
+        let sim = SimConfig {
+            sick_echo: echo,
+            ..SimConfig::default()
+        };
+        let mut scanner = SickScanner::new(sick, &sim, seed);
         let mut scan = SickScan::default();
         scanner.scan(scene, &pose2(0.0, 0.0, 0.0), 0.0, &g, &mut scan);
         assert_eq!(scan.echoes.len(), scanner.channels());
@@ -400,6 +424,11 @@ mod tests {
         };
         let (s1, s5) = (wall_share(&out), wall_share(&returns(&lms5, &grass, 5)));
         assert!(s5 > s1, "last echo on the wall {s5}, strongest {s1}");
+        // a one-echo scanner set to its last echo sees the wall as often as the LMS5xx's last
+        let last = returns_with(&sick, &grass, 5, SickEcho::Last);
+        let first = returns_with(&sick, &grass, 5, SickEcho::First);
+        let (sl, sf) = (wall_share(&last), wall_share(&first));
+        assert!(sl > s1 && sf < s1, "last {sl}, strongest {s1}, first {sf}");
     }
 
     #[test]
