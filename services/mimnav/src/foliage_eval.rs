@@ -42,6 +42,7 @@ use mimnav_shared::pose::Pose2Ext;
 use mimnav_shared::topics::{FoliageReturn, ScanHeader, ScanReturn, cell_class, foliage_class};
 use mimnav_sick::device::Device;
 use mimnav_sick::session::{Event, Session};
+use mimnav_sim::config::SickEcho;
 use mimnav_sim::geometry::{footprint_distance, intersect};
 use mimnav_sim::lidar::Beam;
 use mimnav_sim::sick::{SickScan, SickScanner};
@@ -943,8 +944,15 @@ pub fn run(
         ),
         Sensor::Sick => {
             let (k, (f, step)) = (&config.sick, sick_mode);
+            // what the scanner measures (one echo: sim.sick_echo) and what the driver takes
+            let measured = match (k.model.spec().echoes, config.sim.sick_echo) {
+                (2.., _) => "every echo",
+                (_, SickEcho::Strongest) => "the strongest echo",
+                (_, SickEcho::First) => "the first echo",
+                (_, SickEcho::Last) => "the last echo",
+            };
             format!(
-                "SICK {} at {f} Hz, {step:.4}° steps, {} echo, {} m up",
+                "SICK {} at {f} Hz, {step:.4}° steps, sending {measured}, the driver taking the {} echo, {} m up",
                 k.model.spec().name,
                 match k.echo {
                     mimnav_sick::convert::Echo::First => "first",
