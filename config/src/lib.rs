@@ -301,7 +301,8 @@ impl Config {
     }
 
     /// The foliage classifier's parameters for the configured source: `[foliage]` as written
-    /// for the VLP-16; for a SICK, the window `α` is at least the scan's angular step (the
+    /// for the VLP-16; for a SICK, the window `α` (DESIGN §8, `FIND-LOW-FREQ`'s window; the
+    /// paper's figure uses `α ≈ 2θ`) is at least the scan's angular step (the
     /// `[sick]` mode's): a window narrower than the step leaves empty windows between the
     /// returns, and the classifier's runs of smooth windows break (issue 26: on generated
     /// grass worlds a TiM5xx at 1° detected 23 % of the visible obstacle-scans with 0.4°
