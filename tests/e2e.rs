@@ -31,7 +31,7 @@ mod record;
 /// The SICK ladar's service against an emulated scanner on a loopback TCP port (issue 26).
 mod sick;
 /// The simulator streaming to the driver, and lock-step with a stand-in planner (the whole
-/// stack in lock-step is in `lockstep`).
+/// stack in lock-step is in `lockstep`); its simulated SICK served over TCP.
 mod sim;
 /// The Spot bridge (`clients/python/mimnav_spot.py`) against a fake Spot made of `bosdyn-api`'s
 /// servicers (issue 24).

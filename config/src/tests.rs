@@ -248,3 +248,23 @@ fn issue23_2_an_oversized_config_file_is_refused_before_reading_it_whole() {
     assert_eq!(e.source_name, "/dev/zero");
     assert!(e.message.contains("longer than 1048576 bytes"), "{e}");
 }
+
+#[test]
+fn a_sicks_window_is_at_least_its_step_and_the_velodynes_is_as_written() {
+    // issue 26: a window narrower than the scan's step leaves empty windows between returns
+    let vlp = parse("").expect("defaults");
+    assert_eq!(vlp.foliage_params(), vlp.foliage);
+    let lms = parse("[foliage]\nsource = \"sick\"\n").expect("valid");
+    assert_eq!(
+        lms.foliage_params().window_rad,
+        lms.foliage.window_rad,
+        "0.4° ≥ 0.25°"
+    );
+    let tim = parse("[foliage]\nsource = \"sick\"\n[sick]\nmodel = \"tim5xx\"\n").expect("valid");
+    assert!((tim.foliage_params().window_rad - 1f32.to_radians()).abs() < 1e-6);
+    let wide =
+        parse("[foliage]\nsource = \"sick\"\nwindow_deg = 1.5\n[sick]\nmodel = \"tim5xx\"\n")
+            .expect("valid");
+    assert!((wide.foliage_params().window_rad - 1.5f32.to_radians()).abs() < 1e-6);
+    tim.scan_step().expect("a step");
+}

@@ -36,13 +36,18 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use mimnav_config::Config;
+use mimnav_foliage::ScanSource;
 use mimnav_runner::{Drive, FoliageUse, Lockstep, MapSource, Options};
 use mimnav_shared::pose::Pose2Ext;
-use mimnav_shared::topics::{cell_class, foliage_class};
-use mimnav_sim::Outcome;
+use mimnav_shared::topics::{FoliageReturn, ScanHeader, ScanReturn, cell_class, foliage_class};
+use mimnav_sick::device::Device;
+use mimnav_sick::session::{Event, Session};
+use mimnav_sim::config::SickEcho;
 use mimnav_sim::geometry::{footprint_distance, intersect};
 use mimnav_sim::lidar::Beam;
+use mimnav_sim::sick::{SickScan, SickScanner};
 use mimnav_sim::world::{Material, Scene, Shape, WorldFile};
+use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim};
 
 /// A return is on an obstacle when its range is within this of the beam's true distance to the
 /// obstacle's surface, m: 6 standard deviations of the simulator's range noise (1.5 cm) plus the
@@ -68,6 +73,26 @@ impl Motion {
         match self {
             Motion::Standing => "standing",
             Motion::Moving => "moving",
+        }
+    }
+}
+
+/// The planar scanner whose scans are classified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Sensor {
+    /// One laser of the simulated VLP-16 (`velodyne.scan_laser`), through the Velodyne driver.
+    #[default]
+    Velodyne,
+    /// The simulated SICK of `[sick]` (model, mode, mount), through the SICK driver's session
+    /// and conversion; the classifier runs as with `foliage.source = "sick"`.
+    Sick,
+}
+
+impl Sensor {
+    fn name(self) -> &'static str {
+        match self {
+            Sensor::Velodyne => "velodyne",
+            Sensor::Sick => "sick",
         }
     }
 }
@@ -105,6 +130,9 @@ pub struct FoliageEvalArgs {
     /// windows can see. Reported beside the detection over all visible scans.
     #[arg(long, default_value_t = 3)]
     min_run: usize,
+    /// The scanner: velodyne (one laser of the VLP-16) or sick (the `[sick]` ladar).
+    #[arg(long, value_enum, default_value_t = Sensor::Velodyne)]
+    sensor: Sensor,
     /// Parallel episodes (default: one per core).
     #[arg(long)]
     jobs: Option<usize>,
@@ -168,7 +196,9 @@ pub struct Episode {
     pub contact: bool,
     /// Distance driven, m.
     pub driven_m: f64,
-    /// Seconds per scan (60 / rpm).
+    /// The scanner.
+    pub sensor: Sensor,
+    /// Seconds per scan (60 / rpm, or the SICK's period).
     pub scan_s: f64,
     /// Classifier time, summed, ns.
     pub classify_ns: u128,
@@ -209,7 +239,10 @@ fn label(scene: &Scene, i: usize) -> String {
     }
 }
 
-fn beam_truth(scene: &Scene, opaque: &[usize], beam: &Beam) -> BeamTruth {
+/// The truth of `beam`: its range is the horizontal distance along the beam (from the sensor,
+/// as the VLP-16's driver reports it) or, with `from`, the horizontal distance of the hit from
+/// that point (the robot's axis, where the SICK's driver puts its returns).
+fn beam_truth(scene: &Scene, opaque: &[usize], beam: &Beam, from: Option<[f64; 2]>) -> BeamTruth {
     let (o, d) = (beam.origin, beam.dir);
     let mut best = (f64::INFINITY, None);
     for &i in opaque {
@@ -233,170 +266,181 @@ fn beam_truth(scene: &Scene, opaque: &[usize], beam: &Beam) -> BeamTruth {
     if d[2] < -1e-9 && -o[2] / d[2] < best.0 {
         best = (-o[2] / d[2], None);
     }
+    let range_m = match from {
+        Some(p) if best.0.is_finite() => {
+            (o[0] + best.0 * d[0] - p[0]).hypot(o[1] + best.0 * d[1] - p[1])
+        }
+        _ => best.0 * d[0].hypot(d[1]),
+    };
     BeamTruth {
         obstacle: best.1,
-        range_m: (best.0 * d[0].hypot(d[1])) as f32,
+        range_m: range_m as f32,
         azimuth_deg: beam.azimuth_deg,
     }
 }
 
-/// Runs one episode.
-#[allow(clippy::too_many_arguments)]
-pub fn run_episode(
-    config: &Config,
-    scene: &Scene,
-    world: usize,
-    motion: Motion,
-    speed: f64,
-    seed: u64,
-    scans: u64,
+/// The per-scan scoring of an episode, shared by both scanners: the obstacles, their slots,
+/// and the buffers reused from scan to scan.
+struct Scorer {
+    obstacles: Vec<usize>,
+    opaque: Vec<usize>,
+    /// Scene object → index into `obstacles` (`usize::MAX`: not an obstacle).
+    slot: Vec<usize>,
+    d_min: f32,
+    d_max: f32,
     min_returns: usize,
     min_run: usize,
-) -> Result<Episode> {
-    let params = config.foliage;
-    let (d_min, d_max) = (params.d_min_m, params.d_max_m);
-    let mut scene = scene.clone();
-    // the episode ends after `scans` revolutions, not at the world's time limit
-    scene.time_limit_s = f64::INFINITY;
-    let obstacles = obstacles_of(&scene);
-    let opaque: Vec<usize> = scene
-        .objects
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| matches!(o.material, Material::Opaque { .. }))
-        .map(|(i, _)| i)
-        .collect();
-    let mut slot = vec![usize::MAX; scene.objects.len()];
-    for (k, &i) in obstacles.iter().enumerate() {
-        slot[i] = k;
-    }
-    // the deployed classifier's step, on the driver's scans, with the simulator's odometry
-    let options = Options {
-        map: MapSource::None,
-        foliage: FoliageUse::Classify,
-        inflation: None,
-        drive: Drive::External,
-    };
-    let mut stack = Lockstep::new(config, scene.clone(), seed, options)?;
-    if motion == Motion::Moving {
-        stack.sim_mut().set_command(speed, 0.0);
-    }
-    let laser = usize::from(config.velodyne.scan_laser);
-    let mut episode = Episode {
-        world,
-        robot: config.robot.name.clone(),
-        motion,
-        seed,
-        scans: 0,
-        alarms: 0,
-        false_alarms: 0,
-        contact: false,
-        driven_m: 0.0,
-        scan_s: 60.0 / config.velodyne.rpm,
-        classify_ns: 0,
-        obstacles: obstacles
+    los: Vec<usize>,
+    on: Vec<usize>,
+    hits: Vec<usize>,
+    /// Per obstacle: the longest run of consecutive returns on it.
+    longest: Vec<usize>,
+    on_return: Vec<Option<usize>>,
+}
+
+impl Scorer {
+    fn new(config: &Config, scene: &Scene, min_returns: usize, min_run: usize) -> Self {
+        let obstacles = obstacles_of(scene);
+        let opaque: Vec<usize> = scene
+            .objects
             .iter()
-            .map(|&i| ObstacleRecord {
-                object: i,
-                label: label(&scene, i),
-                ..ObstacleRecord::default()
-            })
-            .collect(),
-    };
-    let (mut beams, mut truth) = (Vec::new(), Vec::<BeamTruth>::new());
-    let n = obstacles.len();
-    let (mut los, mut on, mut hits) = (vec![0usize; n], vec![0usize; n], vec![0usize; n]);
-    // per obstacle: the longest run of consecutive returns on it
-    let mut longest = vec![0usize; n];
-    let mut on_return: Vec<Option<usize>> = Vec::new();
-    while episode.scans < scans {
-        if stack.sim().outcome() != Outcome::Running {
-            episode.contact = matches!(stack.sim().outcome(), Outcome::Contact(_));
-            break;
+            .enumerate()
+            .filter(|(_, o)| matches!(o.material, Material::Opaque { .. }))
+            .map(|(i, _)| i)
+            .collect();
+        let mut slot = vec![usize::MAX; scene.objects.len()];
+        for (k, &i) in obstacles.iter().enumerate() {
+            slot[i] = k;
         }
-        stack.sim().next_beams(laser, &mut beams);
-        truth.extend(beams.iter().map(|b| beam_truth(&scene, &opaque, b)));
-        let Some(turn) = stack.step()? else {
-            continue;
-        };
-        episode.classify_ns += u128::from(turn.classify_ns);
-        let (scan, verdict) = (stack.scan(), stack.verdict());
-        anyhow::ensure!(
-            truth.len() >= scan.len(),
-            "internal: the scan has {} returns but the laser fired {} beams",
-            scan.len(),
-            truth.len()
-        );
-        // the planar scan holds one return per firing of the laser, in firing order
-        on_return.clear();
-        los.fill(0);
-        on.fill(0);
-        hits.fill(0);
-        longest.fill(0);
+        let n = obstacles.len();
+        Scorer {
+            obstacles,
+            opaque,
+            slot,
+            d_min: config.foliage.d_min_m,
+            d_max: config.foliage.d_max_m,
+            min_returns,
+            min_run,
+            los: vec![0; n],
+            on: vec![0; n],
+            hits: vec![0; n],
+            longest: vec![0; n],
+            on_return: Vec::new(),
+        }
+    }
+
+    /// An episode's record before its first scan.
+    fn episode(
+        &self,
+        scene: &Scene,
+        world: usize,
+        robot: &str,
+        motion: Motion,
+        seed: u64,
+    ) -> Episode {
+        Episode {
+            world,
+            robot: robot.to_string(),
+            motion,
+            seed,
+            scans: 0,
+            alarms: 0,
+            false_alarms: 0,
+            contact: false,
+            driven_m: 0.0,
+            sensor: Sensor::Velodyne,
+            scan_s: 0.0,
+            classify_ns: 0,
+            obstacles: self
+                .obstacles
+                .iter()
+                .map(|&i| ObstacleRecord {
+                    object: i,
+                    label: label(scene, i),
+                    ..ObstacleRecord::default()
+                })
+                .collect(),
+        }
+    }
+
+    /// Scores one classified scan: `scan[i]` was measured along the beam whose truth is
+    /// `truth[i]` and classed `verdict[i]`; `alarm` is the verdict's flag and `pose` the robot's
+    /// position when the scan was taken.
+    #[allow(clippy::too_many_arguments)]
+    fn score(
+        &mut self,
+        episode: &mut Episode,
+        scene: &Scene,
+        scan: &[ScanReturn],
+        truth: &[BeamTruth],
+        verdict: &[FoliageReturn],
+        alarm: bool,
+        pose: [f64; 2],
+    ) {
+        let (d_min, d_max) = (self.d_min, self.d_max);
+        self.on_return.clear();
+        self.los.fill(0);
+        self.on.fill(0);
+        self.hits.fill(0);
+        self.longest.fill(0);
         // the run going on: (obstacle, returns so far); a return is on one obstacle at most
         let mut run: Option<(usize, usize)> = None;
-        for (r, t) in scan.iter().zip(&truth) {
-            let az = -f64::from(r.angle_rad).to_degrees();
-            let off = (az - t.azimuth_deg).rem_euclid(360.0);
-            anyhow::ensure!(
-                off.min(360.0 - off) < 0.05,
-                "internal: scan return at {az:.2}° against the beam at {:.2}°",
-                t.azimuth_deg
-            );
-            let k = t.obstacle.map(|i| slot[i]).filter(|&k| k != usize::MAX);
+        for (r, t) in scan.iter().zip(truth) {
+            let k = t
+                .obstacle
+                .map(|i| self.slot[i])
+                .filter(|&k| k != usize::MAX);
             let near = |x: f32| x >= d_min && x <= d_max;
             if let Some(k) = k
                 && near(t.range_m)
             {
-                los[k] += 1;
+                self.los[k] += 1;
             }
             let is_on =
                 k.filter(|_| r.range_m > 0.0 && (r.range_m - t.range_m).abs() <= ON_OBSTACLE_TOL_M);
             let counted = is_on.filter(|_| near(r.range_m));
             if let Some(k) = counted {
-                on[k] += 1;
+                self.on[k] += 1;
             }
             run = counted.map(|k| match run {
                 Some((j, len)) if j == k => (k, len + 1),
                 _ => (k, 1),
             });
             if let Some((k, len)) = run {
-                longest[k] = longest[k].max(len);
+                self.longest[k] = self.longest[k].max(len);
             }
-            on_return.push(is_on);
+            self.on_return.push(is_on);
         }
-        truth.drain(..scan.len());
         let mut on_any = false;
-        for (c, o) in verdict.iter().zip(&on_return) {
+        for (c, o) in verdict.iter().zip(&self.on_return) {
             if c.class == foliage_class::OBSTACLE
                 && let Some(k) = *o
             {
-                hits[k] += 1;
+                self.hits[k] += 1;
                 on_any = true;
             }
         }
-        let alarm = turn.foliage.is_some_and(|h| h.alarm != 0);
         episode.alarms += u64::from(alarm);
         episode.false_alarms += u64::from(alarm && !on_any);
-        let p = stack.sim().base().pose;
+        let (min_returns, min_run) = (self.min_returns, self.min_run);
         for (k, rec) in episode.obstacles.iter_mut().enumerate() {
-            let dist = footprint_distance(&scene.objects[rec.object].shape, [p.x(), p.y()]) as f32;
+            let dist = footprint_distance(&scene.objects[rec.object].shape, pose) as f32;
             let in_range = dist >= d_min && dist <= d_max;
-            let visible = on[k] >= min_returns;
-            let alarmed = hits[k] > 0;
+            let visible = self.on[k] >= min_returns;
+            let alarmed = self.hits[k] > 0;
             if in_range {
                 rec.in_range += 1;
-                if los[k] < min_returns && !visible {
+                if self.los[k] < min_returns && !visible {
                     rec.out_of_beam += 1;
                 } else if !visible {
                     rec.hidden += 1;
-                    rec.glimpsed += u64::from(on[k] > 0);
+                    rec.glimpsed += u64::from(self.on[k] > 0);
                 }
             }
             if visible {
                 rec.visible += 1;
                 rec.alarmed += u64::from(alarmed);
-                if longest[k] >= min_run {
+                if self.longest[k] >= min_run {
                     rec.visible_run += 1;
                     rec.alarmed_run += u64::from(alarmed);
                 }
@@ -415,7 +459,221 @@ pub fn run_episode(
         }
         episode.scans += 1;
     }
+}
+
+/// Runs one episode with the VLP-16.
+#[allow(clippy::too_many_arguments)]
+pub fn run_episode(
+    config: &Config,
+    scene: &Scene,
+    world: usize,
+    motion: Motion,
+    speed: f64,
+    seed: u64,
+    scans: u64,
+    min_returns: usize,
+    min_run: usize,
+) -> Result<Episode> {
+    let mut scene = scene.clone();
+    // the episode ends after `scans` revolutions, not at the world's time limit
+    scene.time_limit_s = f64::INFINITY;
+    let mut scorer = Scorer::new(config, &scene, min_returns, min_run);
+    // the deployed classifier's step, on the driver's scans, with the simulator's odometry
+    let options = Options {
+        map: MapSource::None,
+        foliage: FoliageUse::Classify,
+        inflation: None,
+        drive: Drive::External,
+    };
+    let mut stack = Lockstep::new(config, scene.clone(), seed, options)?;
+    if motion == Motion::Moving {
+        stack.sim_mut().set_command(speed, 0.0);
+    }
+    let laser = usize::from(config.velodyne.scan_laser);
+    let mut episode = scorer.episode(&scene, world, &config.robot.name, motion, seed);
+    episode.scan_s = 60.0 / config.velodyne.rpm;
+    let (mut beams, mut truth) = (Vec::new(), Vec::<BeamTruth>::new());
+    while episode.scans < scans {
+        if stack.sim().outcome() != Outcome::Running {
+            episode.contact = matches!(stack.sim().outcome(), Outcome::Contact(_));
+            break;
+        }
+        stack.sim().next_beams(laser, &mut beams);
+        truth.extend(
+            beams
+                .iter()
+                .map(|b| beam_truth(&scene, &scorer.opaque, b, None)),
+        );
+        let Some(turn) = stack.step()? else {
+            continue;
+        };
+        episode.classify_ns += u128::from(turn.classify_ns);
+        let (scan, verdict) = (stack.scan(), stack.verdict());
+        anyhow::ensure!(
+            truth.len() >= scan.len(),
+            "internal: the scan has {} returns but the laser fired {} beams",
+            scan.len(),
+            truth.len()
+        );
+        // the planar scan holds one return per firing of the laser, in firing order
+        for (r, t) in scan.iter().zip(&truth) {
+            let az = -f64::from(r.angle_rad).to_degrees();
+            let off = (az - t.azimuth_deg).rem_euclid(360.0);
+            anyhow::ensure!(
+                off.min(360.0 - off) < 0.05,
+                "internal: scan return at {az:.2}° against the beam at {:.2}°",
+                t.azimuth_deg
+            );
+        }
+        let alarm = turn.foliage.is_some_and(|h| h.alarm != 0);
+        let p = stack.sim().base().pose;
+        scorer.score(
+            &mut episode,
+            &scene,
+            scan,
+            &truth[..scan.len()],
+            verdict,
+            alarm,
+            [p.x(), p.y()],
+        );
+        truth.drain(..scan.len());
+    }
     episode.driven_m = stack.sim().path_length_m();
+    Ok(episode)
+}
+
+/// Runs one episode with the simulated SICK of `config.sick`: the base drives without the
+/// VLP-16 ([`Sim::idle`]); every period of the scanner a scan is cast from the robot's pose
+/// ([`Sim::sick_scan`]), written as the emulated device's `LMDscandata` telegram in
+/// `sick.protocol`, read by the driver's [`Session`] (whose start-up exchange with the device
+/// ran once at the episode's start: login, scan mode, output, echoes, stream), converted with
+/// `sick.converter()` and classified by `config.scan_step()` with the simulator's odometry of
+/// the scan's instant, as the foliage service gets them. The truth of each measurement is its
+/// beam's ([`Sim::sick_beams`]), measured from the robot's axis as the converted returns are.
+#[allow(clippy::too_many_arguments)]
+pub fn run_sick_episode(
+    config: &Config,
+    scene: &Scene,
+    world: usize,
+    motion: Motion,
+    speed: f64,
+    seed: u64,
+    scans: u64,
+    min_returns: usize,
+    min_run: usize,
+) -> Result<Episode> {
+    let mut config = config.clone();
+    config.foliage.source = ScanSource::Sick;
+    let sick = &config.sick;
+    sick.mode().map_err(|e| anyhow::anyhow!("[sick]: {e}"))?;
+    let mut scene = scene.clone();
+    scene.time_limit_s = f64::INFINITY;
+    let mut scorer = Scorer::new(&config, &scene, min_returns, min_run);
+    let mut sim = Sim::new(scene.clone(), config.sim_settings(), seed, DEFAULT_EPOCH_NS);
+    if motion == Motion::Moving {
+        sim.set_command(speed, 0.0);
+    }
+    // the driver's start-up exchange with the emulated scanner, as over TCP
+    let mut device = Device::new(sick.model, sick.protocol, seed as u32);
+    let mut session = Session::new(sick.session());
+    let (mut to_device, mut to_driver) = (Vec::new(), Vec::new());
+    let mono = |sim: &Sim| sim.now_ns() - DEFAULT_EPOCH_NS;
+    session.begin(mono(&sim), &mut to_device);
+    let mut refused = None;
+    for _ in 0..64 {
+        if session.streaming() || to_device.is_empty() {
+            break;
+        }
+        device.receive(&to_device, &mut to_driver);
+        to_device.clear();
+        session.receive(&to_driver, mono(&sim), &mut to_device, |e| {
+            if let Event::Refused { request, why } = e {
+                refused = Some(format!("{request:?}: {why}"));
+            }
+        });
+        to_driver.clear();
+    }
+    if let Some(r) = refused {
+        anyhow::bail!("the simulated {} refused {r}", sick.model.spec().name);
+    }
+    anyhow::ensure!(
+        session.streaming() && device.streaming(),
+        "internal: the SICK session did not start streaming"
+    );
+    let g = device.geometry();
+    let period_ns = (1e9 / g.frequency_hz).round() as u64;
+    let mut scanner = SickScanner::new(sick, &config.sim, seed);
+    let mut step = config.scan_step()?;
+    let converter = sick.converter();
+    let mut episode = scorer.episode(&scene, world, &config.robot.name, motion, seed);
+    (episode.sensor, episode.scan_s) = (Sensor::Sick, 1.0 / g.frequency_hz);
+    let (mut beams, mut truth) = (Vec::new(), Vec::<BeamTruth>::new());
+    let (mut measured, mut wire, mut returns) = (SickScan::default(), Vec::new(), Vec::new());
+    while episode.scans < scans {
+        if sim.outcome() != Outcome::Running {
+            episode.contact = matches!(sim.outcome(), Outcome::Contact(_));
+            break;
+        }
+        let p = sim.base().pose;
+        let axis = [p.x(), p.y()];
+        sim.sick_beams(&scanner, &g, &mut beams);
+        truth.clear();
+        truth.extend(
+            beams
+                .iter()
+                .map(|b| beam_truth(&scene, &scorer.opaque, b, Some(axis))),
+        );
+        sim.sick_scan(&mut scanner, &g, &mut measured);
+        wire.clear();
+        let time_us = (mono(&sim) / 1000) as u32;
+        device.scan_telegram(time_us, &measured.echoes, &measured.remission, &mut wire);
+        let now = mono(&sim);
+        let (mut got, mut failed) = (false, None);
+        session.receive(&wire, now, &mut to_device, |e| match e {
+            Event::Scan(sd) => match converter.convert(sd, &mut returns) {
+                Ok(_) => got = true,
+                Err(e) => failed = Some(e.to_string()),
+            },
+            Event::BadScan(e) => failed = Some(e.to_string()),
+            Event::Frame(e) => failed = Some(format!("{e:?}")),
+            _ => {}
+        });
+        if let Some(f) = failed {
+            anyhow::bail!("internal: the SICK driver refused the simulated scan: {f}");
+        }
+        anyhow::ensure!(got, "internal: the SICK driver made no scan of a telegram");
+        anyhow::ensure!(
+            returns.len() == truth.len(),
+            "internal: the scan has {} returns but the scanner measured {}",
+            returns.len(),
+            truth.len()
+        );
+        step.odom(&sim.odometry(episode.scans, now))
+            .map_err(|e| anyhow::anyhow!("internal: {e}"))?;
+        let header = ScanHeader {
+            seq: episode.scans,
+            stamp_ns: sim.now_ns(),
+            rx_mono_ns: now,
+            count: returns.len() as u32,
+            return_select: converter.echo.return_type(),
+            ..ScanHeader::default()
+        };
+        let t0 = std::time::Instant::now();
+        let classified = step.scan(&header, &returns, now);
+        episode.classify_ns += t0.elapsed().as_nanos();
+        let alarm = classified.header.alarm != 0;
+        scorer.score(
+            &mut episode,
+            &scene,
+            &returns,
+            &truth,
+            classified.returns,
+            alarm,
+            axis,
+        );
+        sim.idle(period_ns);
+    }
+    episode.driven_m = sim.path_length_m();
     Ok(episode)
 }
 
@@ -570,6 +828,13 @@ pub fn run(
             configs.push(c);
         }
     }
+    // the classifier runs as the stack with this scanner runs it (foliage.source)
+    for c in &mut configs {
+        c.foliage.source = match args.sensor {
+            Sensor::Velodyne => ScanSource::Velodyne,
+            Sensor::Sick => ScanSource::Sick,
+        };
+    }
     let mut speeds = Vec::new();
     for c in &configs {
         let top = c.robot.max_linear_mps;
@@ -584,6 +849,13 @@ pub fn run(
             .validate()
             .map_err(|e| anyhow::anyhow!("[foliage]: {e}"))?;
     }
+    let sick_mode = match args.sensor {
+        Sensor::Sick => config
+            .sick
+            .mode()
+            .map_err(|e| anyhow::anyhow!("[sick]: {e}"))?,
+        Sensor::Velodyne => (0.0, 0.0),
+    };
     let paths = if args.worlds.is_empty() {
         foliage_worlds(config)?
     } else {
@@ -613,8 +885,12 @@ pub fn run(
     }
     let workers = crate::pool::workers(args.jobs);
     let started = std::time::Instant::now();
+    let episode = match args.sensor {
+        Sensor::Velodyne => run_episode,
+        Sensor::Sick => run_sick_episode,
+    };
     let results = crate::pool::run_all(&jobs, workers, args.quiet, |&(w, r, m, seed), _| {
-        run_episode(
+        episode(
             &configs[r],
             &scenes[w],
             w,
@@ -656,19 +932,44 @@ pub fn run(
             }
         }
     }
-    let p = config.foliage;
+    let p = configs[0].foliage_params();
+    let scanner = match args.sensor {
+        Sensor::Velodyne => format!(
+            "VLP-16 laser {} ({})",
+            config.velodyne.scan_laser,
+            match config.velodyne.scan_return {
+                mimnav_velodyne::config::ScanReturnSelect::Strongest => "strongest return",
+                mimnav_velodyne::config::ScanReturnSelect::Last => "last return",
+            }
+        ),
+        Sensor::Sick => {
+            let (k, (f, step)) = (&config.sick, sick_mode);
+            // what the scanner measures (one echo: sim.sick_echo) and what the driver takes
+            let measured = match (k.model.spec().echoes, config.sim.sick_echo) {
+                (2.., _) => "every echo",
+                (_, SickEcho::Strongest) => "the strongest echo",
+                (_, SickEcho::First) => "the first echo",
+                (_, SickEcho::Last) => "the last echo",
+            };
+            format!(
+                "SICK {} at {f} Hz, {step:.4}° steps, sending {measured}, the driver taking the {} echo, {} m up",
+                k.model.spec().name,
+                match k.echo {
+                    mimnav_sick::convert::Echo::First => "first",
+                    mimnav_sick::convert::Echo::Last => "last",
+                },
+                k.mount.z_m
+            )
+        }
+    };
     outln!(
-        "{} seeds (from seed {}) × {} scans per world, robot and motion; laser {} ({}), d = [{}, {}] m; moving: straight at {}",
+        "{} seeds (from seed {}) × {} scans per world, robot and motion; {scanner}, d = [{}, {}] m, window {:.2}°; moving: straight at {}",
         args.seeds,
         args.first_seed,
         args.scans,
-        config.velodyne.scan_laser,
-        match config.velodyne.scan_return {
-            mimnav_velodyne::config::ScanReturnSelect::Strongest => "strongest return",
-            mimnav_velodyne::config::ScanReturnSelect::Last => "last return",
-        },
         p.d_min_m,
         p.d_max_m,
+        p.window_rad.to_degrees(),
         robots
             .iter()
             .zip(&speeds)
@@ -765,6 +1066,7 @@ pub fn run(
                 "robot": e.robot,
                 "motion": e.motion.name(),
                 "seed": e.seed,
+                "sensor": e.sensor.name(),
                 "scans": e.scans,
                 "alarms": e.alarms,
                 "false_alarms": e.false_alarms,

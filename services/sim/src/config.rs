@@ -31,6 +31,18 @@ impl SimReturnMode {
     }
 }
 
+/// Which echo of a beam a simulated one-echo SICK (LMS1xx, TiM) reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SickEcho {
+    /// The strongest echo (as the VLP-16 in strongest mode).
+    Strongest,
+    /// The nearest echo.
+    First,
+    /// The farthest echo (through foliage, the surface behind it).
+    Last,
+}
+
 /// How the simulated robot's base meets the stack.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -86,6 +98,21 @@ pub struct SimConfig {
     /// With `base = "kobuki"`: the symlink to the pseudo-terminal the simulator makes (point
     /// `kobuki.device` at it).
     pub kobuki_link: PathBuf,
+    /// Serve a simulated SICK 2D ladar (the `[sick]` model, mode and mount; [`crate::sick`])
+    /// over TCP at `sim.sick_bind`:`sim.sick_port`, as the real scanner serves CoLa: one
+    /// client at a time, scans cast from the robot's pose while the client streams. Point
+    /// `sick.host` and `sick.port` at it.
+    pub sick: bool,
+    /// The address the simulated SICK listens on (loopback unless you mean it).
+    pub sick_bind: IpAddr,
+    /// Its TCP port (a SICK's CoLa port is 2111).
+    pub sick_port: u16,
+    /// The echo a simulated one-echo SICK (LMS1xx, TiM) reports of each beam: `strongest`,
+    /// `first` or `last` (an LMS5xx reports them all; [`crate::sick`]).
+    pub sick_echo: SickEcho,
+    /// A client that has not taken what was sent to it for this long is dropped (it never
+    /// holds the simulator up), s.
+    pub sick_stall_s: f64,
 }
 
 impl Default for SimConfig {
@@ -106,6 +133,11 @@ impl Default for SimConfig {
             grass_blades: false,
             base: SimBase::Ideal,
             kobuki_link: PathBuf::from("/tmp/mimnav/kobuki"),
+            sick: false,
+            sick_bind: IpAddr::from([127, 0, 0, 1]),
+            sick_port: 2111,
+            sick_echo: SickEcho::Strongest,
+            sick_stall_s: 1.0,
         }
     }
 }
@@ -125,6 +157,12 @@ impl SimConfig {
         );
         r.check("sim.goal_tolerance_m", self.goal_tolerance_m, 0.01, 5.0);
         r.check("sim.time_scale", self.time_scale, 0.1, 100.0);
+        r.check("sim.sick_stall_s", self.sick_stall_s, 0.05, 60.0);
+        r.require(
+            !self.sick || self.sick_port != 0,
+            "sim.sick_port",
+            "sim.sick_port = 0: name the TCP port the simulated SICK listens on (a SICK's is 2111)",
+        );
         r.require(
             !(self.base == SimBase::Kobuki && self.lockstep),
             "sim.base",

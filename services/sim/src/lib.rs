@@ -1,5 +1,6 @@
 //! The mimnav scenario simulator as a library: worlds, a VLP-16 that writes genuine packets from
-//! a material model, a robot base that follows velocity commands, collisions and ground truth.
+//! a material model, a SICK 2D ladar measuring with the same model ([`sick`]), a robot base that
+//! follows velocity commands, collisions and ground truth.
 //! No inter-process communication: `main.rs` wires it to UDP, pcap files and iceoryx2.
 //!
 //! Read it in this order: [`world`] (the TOML format and the compiled [`world::Scene`]),
@@ -30,6 +31,7 @@ pub mod lidar;
 pub mod motion;
 pub mod physics;
 pub mod reach;
+pub mod sick;
 pub mod truth;
 pub mod world;
 
@@ -291,6 +293,35 @@ impl Sim {
     /// in firing order: one per firing, as the driver's planar scan has one return per firing.
     pub fn next_beams(&self, laser: usize, out: &mut Vec<lidar::Beam>) {
         self.lidar.next_beams(&self.base.pose, laser, out);
+    }
+
+    /// Moves the base for `dt_ns` of simulated time without casting the VLP-16 (its clock and
+    /// rotation move on as if it spun unseen; no packet, no revolution is counted): how a run
+    /// with only a SICK ([`Sim::sick_scan`]) lets time pass.
+    pub fn idle(&mut self, dt_ns: u64) {
+        self.lidar.idle(dt_ns);
+        self.advance(dt_ns as f64 * 1e-9);
+    }
+
+    /// Casts a scan of the simulated SICK `sick` with geometry `g` (its device's current mode)
+    /// from the current pose, at the current time; see [`sick`].
+    pub fn sick_scan(
+        &self,
+        sick: &mut sick::SickScanner,
+        g: &mimnav_sick::device::Geometry,
+        out: &mut sick::SickScan,
+    ) {
+        sick.scan(&self.scene, &self.base.pose, self.elapsed_s(), g, out);
+    }
+
+    /// The beams of the SICK scan [`Sim::sick_scan`] would cast now, in measurement order.
+    pub fn sick_beams(
+        &self,
+        sick: &sick::SickScanner,
+        g: &mimnav_sick::device::Geometry,
+        out: &mut Vec<lidar::Beam>,
+    ) {
+        sick.beams(&self.base.pose, g, out);
     }
 
     /// Casts the next packet from the current pose, then moves the base for one packet period.

@@ -124,6 +124,12 @@ impl Vlp16 {
         self.epoch_ns + self.elapsed_ns
     }
 
+    /// Lets `dt_ns` pass without casting: the sensor spins on unseen (for runs with another
+    /// sensor, [`crate::Sim::idle`]).
+    pub fn idle(&mut self, dt_ns: u64) {
+        self.elapsed_ns += dt_ns;
+    }
+
     /// Azimuth at `elapsed_ns` after the epoch, degrees clockwise from forward in [0, 360).
     fn azimuth_deg(&self, elapsed_ns: u64) -> f64 {
         let deg_per_ns = self.rpm * 6.0 * 1e-9;

@@ -1,6 +1,7 @@
 //! The simulator streaming to the stack (part of the `mimnav-sim` binary, not of the library):
 //! packets over UDP as a VLP-16 sends them, `odom` and `sim/truth` published, `cmd_vel`
-//! followed; in real time, or lock-stepped with the stack one revolution at a time.
+//! followed; in real time, or lock-stepped with the stack one revolution at a time; with
+//! `sim.sick`, a simulated SICK served over TCP beside it ([`crate::sick`]).
 
 use std::net::{SocketAddr, UdpSocket};
 use std::process::ExitCode;
@@ -17,6 +18,7 @@ use mimnav_sim::config::SimBase;
 use mimnav_sim::{Outcome, Sim};
 
 use crate::kobuki::PtyBase;
+use crate::sick::SickServer;
 
 /// Runs the episode (or `seconds` of it) against the stack; prints the summary (as JSON with
 /// `json`).
@@ -52,6 +54,11 @@ pub fn run(
     // the hour of its timestamps the same way
     let epoch_ns = ipc::realtime_ns() / 1000 * 1000;
     let mut sim = sim(epoch_ns);
+    // sim.sick: the simulated SICK on TCP, polled after every packet
+    let mut sick = match config.sim.sick {
+        true => Some(SickServer::open(config)?),
+        false => None,
+    };
     tracing::info!(world = %sim.scene().name, to = %data_to, lockstep, seed = config.sim.seed, "simulating");
     let send = |h: &mut Health, bytes: &[u8], to: SocketAddr| {
         if let Err(e) = udp.send_to(bytes, to) {
@@ -88,6 +95,9 @@ pub fn run(
             (odom_seq, next_odom_ns) = (odom_seq + 1, step.send_ns + 20_000_000);
         }
         send(&mut h, &step.data, data_to);
+        if let Some(s) = sick.as_mut() {
+            s.poll(&sim, &mut h);
+        }
         if !lockstep && kobuki.is_none() {
             match cmd.latest() {
                 Ok(Some(c)) => {
@@ -149,6 +159,10 @@ pub fn run(
     match json {
         true => stdout_line(format_args!("{}", serde_json::to_string(&summary)?)),
         false => stdout_line(format_args!("{summary}")),
+    }
+    if let Some(s) = &sick {
+        let (clients, dropped, scans) = s.stats;
+        tracing::info!(clients, dropped, scans, "simulated SICK");
     }
     tracing::info!(faults = %h.faults.summary(), "simulation ended");
     Ok(match sim.outcome() {

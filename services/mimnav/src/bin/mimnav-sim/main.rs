@@ -4,7 +4,8 @@
 //! - `--pcap OUT`: write a capture of `--seconds` of the sensor (the robot stands at the start);
 //! - streaming (default): send the sensor's packets over UDP in real time, as a VLP-16 would,
 //!   follow `cmd_vel`, publish `odom` and `sim/truth` (with `sim.base = "kobuki"`, a simulated
-//!   Kobuki on a pseudo-terminal moves the robot instead, driven by `mimnav-kobuki`);
+//!   Kobuki on a pseudo-terminal moves the robot instead, driven by `mimnav-kobuki`; with
+//!   `sim.sick = true`, a simulated SICK 2D ladar serves `mimnav-sick` over TCP as well);
 //! - `--lockstep`: the same, as fast as the machine allows, one revolution at a time, waiting
 //!   after each for the stack's command computed from it.
 
@@ -20,6 +21,7 @@ use mimnav_sim::{DEFAULT_EPOCH_NS, Sim};
 
 mod kobuki;
 mod live;
+mod sick;
 
 /// The scenario simulator: a VLP-16 in a world, streaming packets (UDP), writing a capture, or
 /// lock-stepped with the stack.
