@@ -454,8 +454,24 @@ pub fn sick_cola(data: &[u8]) {
                         }
                     }
                 }
-                if !matches!(e, Event::Frame(mimnav_sick::cola::FrameError::Garbage(_))) {
-                    events.push(format!("{e:?}"));
+                match &e {
+                    Event::Frame(mimnav_sick::cola::FrameError::Garbage(_)) => {}
+                    // a scan by its counter and a digest of its channels (its Debug is long)
+                    Event::Scan(sd) => events.push(format!(
+                        "scan {} {:?}",
+                        sd.scan_counter,
+                        sd.channels()
+                            .iter()
+                            .map(|c| (
+                                c.name,
+                                c.values.len(),
+                                c.values.iter().fold(0u64, |a, &v| {
+                                    a.wrapping_mul(31).wrapping_add(u64::from(v))
+                                })
+                            ))
+                            .collect::<Vec<_>>()
+                    )),
+                    _ => events.push(format!("{e:?}")),
                 }
             });
             assert!(s.frame_stats().telegrams <= stream.len() as u64);

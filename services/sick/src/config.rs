@@ -142,10 +142,7 @@ impl Default for SickConfig {
             echo: Echo::Last,
             remission: true,
             configure: true,
-            mount: SickMount {
-                z_m: 0.4,
-                ..SickMount::default()
-            },
+            mount: SickMount::default(),
             min_range_m: 0.05,
             max_range_m: 0.0,
             connect_timeout_s: 1.0,
@@ -334,6 +331,12 @@ mod tests {
                 Request::Stream(true)
             ]
         ));
+    }
+
+    #[test]
+    fn a_partial_mount_keeps_the_other_defaults() {
+        let c: SickConfig = toml::from_str("[mount]\nupside_down = true\n").expect("parses");
+        assert_eq!((c.mount.z_m, c.mount.upside_down), (0.4, true));
     }
 
     #[test]

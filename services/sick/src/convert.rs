@@ -47,8 +47,9 @@ impl Echo {
     }
 }
 
-/// Where the scanner sits on the robot (`[sick.mount]`).
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Deserialize, serde::Serialize)]
+/// Where the scanner sits on the robot (`[sick.mount]`); by default on the robot's axis facing
+/// forward, its scan plane 0.4 m above the ground.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SickMount {
     /// Forward of the robot's axis, m.
@@ -62,6 +63,18 @@ pub struct SickMount {
     pub yaw_deg: f64,
     /// Mounted upside down (its scan runs clockwise seen from above).
     pub upside_down: bool,
+}
+
+impl Default for SickMount {
+    fn default() -> Self {
+        SickMount {
+            x_m: 0.0,
+            y_m: 0.0,
+            z_m: 0.4,
+            yaw_deg: 0.0,
+            upside_down: false,
+        }
+    }
 }
 
 /// How a scan becomes returns.

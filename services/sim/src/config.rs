@@ -107,8 +107,9 @@ pub struct SimConfig {
     pub sick_bind: IpAddr,
     /// Its TCP port (a SICK's CoLa port is 2111).
     pub sick_port: u16,
-    /// The echo a simulated one-echo SICK (LMS1xx, TiM) reports of each beam: `strongest`,
-    /// `first` or `last` (an LMS5xx reports them all; [`crate::sick`]).
+    /// The echo a simulated one-echo SICK (LMS1xx, TiM) reports of each beam: `last` (the
+    /// default, as SICK's echo filter defaults to the last echo), `first` or `strongest` (an
+    /// LMS5xx reports them all; [`crate::sick`]).
     pub sick_echo: SickEcho,
     /// A client that has not taken what was sent to it for this long is dropped (it never
     /// holds the simulator up), s.
@@ -136,7 +137,7 @@ impl Default for SimConfig {
             sick: false,
             sick_bind: IpAddr::from([127, 0, 0, 1]),
             sick_port: 2111,
-            sick_echo: SickEcho::Strongest,
+            sick_echo: SickEcho::Last,
             sick_stall_s: 1.0,
         }
     }
