@@ -94,8 +94,10 @@ impl Channel {
 }
 
 /// One `LMDscandata` telegram, parsed. Reused from telegram to telegram: the channels' buffers
-/// are kept, so parsing does not allocate once the largest scan has been seen.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// are kept, so parsing does not allocate once the largest scan has been seen. Two scans are
+/// equal when their fields and their [`ScanData::channels`] are (the buffers kept beyond them
+/// do not count).
+#[derive(Debug, Clone, Default)]
 pub struct ScanData {
     /// Version number (1).
     pub version: u16,
@@ -127,6 +129,43 @@ pub struct ScanData {
     pub encoders: Vec<(u32, u16)>,
     channels: Vec<Channel>,
     used: usize,
+}
+
+impl PartialEq for ScanData {
+    fn eq(&self, o: &Self) -> bool {
+        (
+            self.version,
+            self.device_number,
+            self.serial,
+            self.device_status,
+            self.telegram_counter,
+            self.scan_counter,
+            self.time_since_startup_us,
+            self.time_of_transmission_us,
+        ) == (
+            o.version,
+            o.device_number,
+            o.serial,
+            o.device_status,
+            o.telegram_counter,
+            o.scan_counter,
+            o.time_since_startup_us,
+            o.time_of_transmission_us,
+        ) && (
+            self.inputs,
+            self.outputs,
+            self.layer_angle,
+            self.scan_frequency,
+            self.measurement_frequency,
+        ) == (
+            o.inputs,
+            o.outputs,
+            o.layer_angle,
+            o.scan_frequency,
+            o.measurement_frequency,
+        ) && self.encoders == o.encoders
+            && self.channels() == o.channels()
+    }
 }
 
 /// Why a telegram is not a scan.
@@ -666,6 +705,29 @@ mod tests {
             values: vec![154, 0, 0, 255, 1],
         });
         s
+    }
+
+    /// Found by the `sick_cola` fuzz target: a scan parsed into a `ScanData` that had held more
+    /// channels compared unequal to the same scan parsed afresh (the derived equality saw the
+    /// buffers kept for reuse).
+    #[test]
+    fn fuzz_sick_cola_a_reused_scan_equals_a_fresh_one() {
+        let two = sample();
+        let mut one = sample();
+        one.clear_channels();
+        one.push_channel(two.channels()[0].clone());
+        for d in [Dialect::ColaA, Dialect::ColaB] {
+            let (mut w2, mut w1) = (Vec::new(), Vec::new());
+            two.encode(d, b"sSN", &mut w2);
+            one.encode(d, b"sSN", &mut w1);
+            let mut reused = ScanData::default();
+            reused.parse(d, &w2).expect("two channels");
+            reused.parse(d, &w1).expect("one channel");
+            let mut fresh = ScanData::default();
+            fresh.parse(d, &w1).expect("one channel");
+            assert_eq!(reused, fresh);
+            assert_ne!(reused, two);
+        }
     }
 
     #[test]
