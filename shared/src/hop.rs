@@ -84,6 +84,69 @@ pub fn record_drops(
     }
 }
 
+/// The latencies of one hop over a reporting interval (issue 27: per-hop latency in the
+/// periodic statistics): microseconds pushed as samples pass, percentiles read and cleared by
+/// the periodic line. Holds at most [`Latencies::CAPACITY`] samples an interval (100 s of
+/// revolutions at 10 Hz); later ones still count in the maximum and the count.
+#[derive(Debug, Clone, Default)]
+pub struct Latencies {
+    samples: Vec<u32>,
+    count: u64,
+    max: u32,
+}
+
+impl Latencies {
+    /// Samples kept for the percentiles per interval.
+    pub const CAPACITY: usize = 1024;
+
+    /// An empty window (allocated once).
+    pub fn new() -> Self {
+        Latencies {
+            samples: Vec::with_capacity(Self::CAPACITY),
+            count: 0,
+            max: 0,
+        }
+    }
+
+    /// One sample, µs.
+    pub fn push(&mut self, us: u64) {
+        let us = us.min(u64::from(u32::MAX)) as u32;
+        self.count += 1;
+        self.max = self.max.max(us);
+        if self.samples.len() < Self::CAPACITY {
+            self.samples.push(us);
+        }
+    }
+
+    /// Samples since the last [`Latencies::take`].
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// `p50 X µs, p99 Y µs, max Z µs over N` (nearest rank) and a fresh window; `None` when
+    /// there was no sample.
+    pub fn take(&mut self) -> Option<String> {
+        if self.count == 0 {
+            return None;
+        }
+        self.samples.sort_unstable();
+        let rank = |q: f64| {
+            let n = self.samples.len();
+            self.samples[((q * n as f64).ceil() as usize).clamp(1, n) - 1]
+        };
+        let shown = format!(
+            "p50 {} µs, p99 {} µs, max {} µs over {}",
+            rank(0.5),
+            rank(0.99),
+            self.max,
+            self.count
+        );
+        self.samples.clear();
+        (self.count, self.max) = (0, 0);
+        Some(shown)
+    }
+}
+
 struct Described<'a>(&'a Hop, &'a str);
 
 impl fmt::Display for Described<'_> {
@@ -121,6 +184,27 @@ mod tests {
             h.describe("scans").to_string(),
             "3 scans in, 0 dropped, 1 publisher restarts"
         );
+    }
+
+    #[test]
+    fn latencies_give_nearest_rank_percentiles_and_start_afresh() {
+        let mut l = Latencies::new();
+        assert_eq!(l.take(), None);
+        for us in (1..=200).rev() {
+            l.push(us);
+        }
+        assert_eq!(
+            l.take().as_deref(),
+            Some("p50 100 µs, p99 198 µs, max 200 µs over 200")
+        );
+        assert_eq!(l.count(), 0);
+        // past the capacity the maximum and the count still see every sample
+        for _ in 0..Latencies::CAPACITY {
+            l.push(5);
+        }
+        l.push(9_000);
+        let shown = l.take().expect("samples");
+        assert!(shown.ends_with("max 9000 µs over 1025"), "{shown}");
     }
 
     #[test]

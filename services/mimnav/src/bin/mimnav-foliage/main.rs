@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_foliage::step::OdomUse;
-use mimnav_shared::hop::record_drops;
+use mimnav_shared::hop::{Latencies, record_drops};
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics;
@@ -60,6 +60,8 @@ fn run(config: &Config) -> Result<()> {
     let (mut alarm_on, mut alarmed, mut told_no_odom) = (false, 0u64, false);
     let (mut spent_us, mut since_report, mut last_scan) = (0u64, 0u64, Instant::now());
     let (mut health, mut last_report) = (svc.health(), Instant::now());
+    // per hop (issue 27): the last packet to here, the classifying, the last packet to the alarm
+    let mut lat = (Latencies::new(), Latencies::new(), Latencies::new());
     svc.run(&mut health, "waiting for lidar/scan2d", |turn, h| {
         let _ = (odom_sub.heard(), scans.heard());
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
@@ -101,8 +103,14 @@ fn run(config: &Config) -> Result<()> {
             alarmed += u64::from(hd.alarm);
             let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
             hd.processing_us = us;
+            let rx = c.header.rx_mono_ns;
             if let Err(e) = alarms.publish(c.header, c.returns) {
                 h.faults.record("publish_failed", turn.now, e);
+            }
+            if rx > 0 {
+                lat.0.push(now.saturating_sub(rx) / 1000);
+                lat.1.push(u64::from(us));
+                lat.2.push(ipc::monotonic_ns().saturating_sub(rx) / 1000);
             }
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
             let lost = step.scan_hop().dropped() - dropped;
@@ -133,6 +141,15 @@ fn run(config: &Config) -> Result<()> {
                 hop.describe("scans")
             );
             last_report = Instant::now();
+            if let Some(sent) = lat.2.take() {
+                let (waited, work) = (lat.0.take(), lat.1.take());
+                tracing::info!(
+                    "latency per hop: last packet → scan here {}; classifying {}; last packet → \
+                     foliage/alarm sent {sent}",
+                    waited.unwrap_or_default(),
+                    work.unwrap_or_default()
+                );
+            }
         }
         if since_report >= 100 {
             let (scans, mean_us) = (step.scans(), spent_us / since_report);

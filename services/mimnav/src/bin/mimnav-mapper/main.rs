@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use mimnav_config::Config;
-use mimnav_shared::hop::record_drops;
+use mimnav_shared::hop::{Latencies, record_drops};
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics::{self, PlanCell, map_status};
@@ -55,6 +55,8 @@ fn run(config: &Config) -> Result<()> {
     let points_guard = svc.on_deadline(&points, deadline)?;
     let (_odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
     let (mut spent_us, mut since_report, mut last_report) = (0u64, 0u64, Instant::now());
+    // per hop (issue 27): the last packet to here, the mapping, the last packet to map/plan sent
+    let mut lat = (Latencies::new(), Latencies::new(), Latencies::new());
     let mut health = svc.health();
     svc.run(&mut health, "waiting for lidar/points", |turn, h| {
         if turn.missed(&points_guard) {
@@ -94,6 +96,9 @@ fn run(config: &Config) -> Result<()> {
                 h.faults.record("publish_failed", turn.now, e);
             }
             let plan_sent_us = ipc::monotonic_ns().saturating_sub(rx) / 1000;
+            lat.0.push(now.saturating_sub(rx) / 1000);
+            lat.1.push(u64::from(us));
+            lat.2.push(plan_sent_us);
             let len = n_layers * grid.len();
             let layers = step.mapper().layers();
             if let Err(e) = layers_pub.publish_from_iter(mapped.header, len, layers) {
@@ -135,6 +140,15 @@ fn run(config: &Config) -> Result<()> {
                 hop.describe("revolutions")
             );
             (spent_us, since_report, last_report) = (0, 0, Instant::now());
+            if let Some(sent) = lat.2.take() {
+                let (waited, work) = (lat.0.take(), lat.1.take());
+                tracing::info!(
+                    "latency per hop: last packet → revolution here {}; mapping {}; last packet → \
+                     map/plan sent {sent}",
+                    waited.unwrap_or_default(),
+                    work.unwrap_or_default()
+                );
+            }
         }
     })?;
     let hop = step.points_hop();
