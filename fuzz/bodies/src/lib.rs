@@ -237,6 +237,26 @@ pub fn world(data: &[u8]) {
     let _ = sim.summary(false, 0);
 }
 
+/// A chunked-stream input (of [`kobuki_frames`] and [`sick_cola`]): `k`, the low 4 bits of
+/// `head`, chunk sizes (a byte each, 0 read as 256) at the start of `rest`, then the stream;
+/// the stream and its chunks, the sizes taken in turn (one chunk when `k` is 0).
+fn chunked(head: u8, rest: &[u8]) -> (&[u8], Vec<&[u8]>) {
+    let k = usize::from(head & 0x0F).min(rest.len());
+    let (cuts, stream) = rest.split_at(k);
+    let size = |i: usize| match cuts.get(i % cuts.len().max(1)) {
+        None => stream.len().max(1),
+        Some(0) => 256,
+        Some(&c) => usize::from(c),
+    };
+    let (mut left, mut chunks) = (stream, Vec::new());
+    while !left.is_empty() {
+        let (chunk, tail) = left.split_at(size(chunks.len()).min(left.len()));
+        chunks.push(chunk);
+        left = tail;
+    }
+    (stream, chunks)
+}
+
 /// Most chunk sizes a [`kobuki_frames`] input sets.
 pub const KOBUKI_MAX_CUTS: usize = 15;
 
@@ -259,15 +279,7 @@ pub fn kobuki_frames(data: &[u8]) {
     let Some((&head, rest)) = data.split_first() else {
         return;
     };
-    let k = usize::from(head & 0x0F).min(rest.len());
-    let (cuts, stream) = rest.split_at(k);
-    let cuts: Vec<usize> = if cuts.is_empty() {
-        vec![stream.len().max(1)]
-    } else {
-        cuts.iter()
-            .map(|&c| if c == 0 { 256 } else { usize::from(c) })
-            .collect()
-    };
+    let (stream, chunks) = chunked(head, rest);
     let accounted = |p: &FrameParser| {
         let s = p.stats();
         assert_eq!(
@@ -279,12 +291,7 @@ pub fn kobuki_frames(data: &[u8]) {
     };
     let mut parser = FrameParser::new();
     let mut out = Vec::new();
-    let mut left = stream;
-    let mut i = 0;
-    while !left.is_empty() {
-        let (chunk, tail) = left.split_at(cuts[i % cuts.len()].min(left.len()));
-        i += 1;
-        left = tail;
+    for chunk in chunks {
         out.extend(parser.push(chunk));
         assert!(parser.pending() <= MAX_FRAME);
         accounted(&parser);
@@ -412,15 +419,7 @@ pub fn sick_cola(data: &[u8]) {
     if head & 0x40 == 0 {
         sc.requests.clear();
     }
-    let k = usize::from(head & 0x0F).min(rest.len());
-    let (cuts, stream) = rest.split_at(k);
-    let cuts: Vec<usize> = if cuts.is_empty() {
-        vec![stream.len().max(1)]
-    } else {
-        cuts.iter()
-            .map(|&c| if c == 0 { 256 } else { usize::from(c) })
-            .collect()
-    };
+    let (stream, chunks) = chunked(head, rest);
     let conv = cfg.converter();
     let mut returns = Vec::new();
     let mut run = |pieces: &mut dyn Iterator<Item = &[u8]>| {
@@ -483,15 +482,6 @@ pub fn sick_cola(data: &[u8]) {
         }
         (events, s.stats().scans, out)
     };
-    let mut left = stream;
-    let mut i = 0;
-    let mut chunks = Vec::new();
-    while !left.is_empty() {
-        let (chunk, tail) = left.split_at(cuts[i % cuts.len()].min(left.len()));
-        chunks.push(chunk);
-        i += 1;
-        left = tail;
-    }
     let (a, sa, oa) = run(&mut chunks.iter().copied());
     let (b, sb, ob) = run(&mut std::iter::once(stream));
     assert_eq!(a, b, "the events depend on the chunking");
