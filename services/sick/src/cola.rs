@@ -281,6 +281,71 @@ fn find_magic(b: &[u8]) -> Option<usize> {
     b.windows(4).position(|w| w == COLA_B_MAGIC)
 }
 
+/// Writes a telegram's arguments after its command and name: in CoLa-A each as a space and
+/// its text, in CoLa-B one space and then each in binary (big-endian, its size). Requests,
+/// answers and scans are all written through it.
+pub(crate) struct Args<'a> {
+    dialect: Dialect,
+    out: &'a mut Vec<u8>,
+    /// CoLa-B: the space before the binary arguments is written.
+    spaced: bool,
+}
+
+impl<'a> Args<'a> {
+    /// Arguments appended to `out`, which holds the command and its name.
+    pub(crate) fn new(dialect: Dialect, out: &'a mut Vec<u8>) -> Self {
+        Args {
+            dialect,
+            out,
+            spaced: false,
+        }
+    }
+
+    fn binary(&mut self, bytes: &[u8]) {
+        if !self.spaced {
+            self.out.push(b' ');
+            self.spaced = true;
+        }
+        self.out.extend_from_slice(bytes);
+    }
+
+    /// An unsigned argument of `size` bytes: hex in CoLa-A, `width` digits at least.
+    pub(crate) fn hex(&mut self, v: u32, size: usize, width: usize) -> &mut Self {
+        match self.dialect {
+            Dialect::ColaA => {
+                use std::io::Write;
+                let _ = write!(self.out, " {v:0width$X}");
+            }
+            Dialect::ColaB => self.binary(&v.to_be_bytes()[4 - size..]),
+        }
+        self
+    }
+
+    /// A signed argument of `size` bytes: decimal with its sign in CoLa-A.
+    pub(crate) fn dec(&mut self, v: i64, size: usize) -> &mut Self {
+        match self.dialect {
+            Dialect::ColaA => {
+                use std::io::Write;
+                let _ = write!(self.out, " {v:+}");
+            }
+            Dialect::ColaB => self.binary(&v.to_be_bytes()[8 - size..]),
+        }
+        self
+    }
+
+    /// A fixed text (a channel's name): a token in CoLa-A, its bytes in CoLa-B.
+    pub(crate) fn text(&mut self, t: &[u8]) -> &mut Self {
+        match self.dialect {
+            Dialect::ColaA => {
+                self.out.push(b' ');
+                self.out.extend_from_slice(t);
+            }
+            Dialect::ColaB => self.binary(t),
+        }
+        self
+    }
+}
+
 /// The XOR of every byte: CoLa-B's checksum.
 pub fn xor(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0, |a, b| a ^ b)

@@ -17,7 +17,7 @@
 
 use std::io::Write;
 
-use crate::cola::Dialect;
+use crate::cola::{Args, Dialect};
 
 /// The "authorised client" level and its password hash (SICK's documented default, `client`).
 pub const CLIENT_LEVEL: u8 = 3;
@@ -92,11 +92,7 @@ impl Request {
     pub fn encode(&self, dialect: Dialect, out: &mut Vec<u8>) {
         let (kind, name) = self.command();
         let _ = write!(out, "{kind} {name}");
-        let mut a = Args {
-            dialect,
-            out,
-            spaced: false,
-        };
+        let mut a = Args::new(dialect, out);
         match *self {
             Request::Login { level, password } => {
                 a.hex(u32::from(level), 1, 2);
@@ -130,47 +126,9 @@ impl Request {
                 }
                 a.dec(1, 2); // every scan
             }
-            Request::EchoFilter(f) => a.hex(u32::from(f), 1, 1),
+            Request::EchoFilter(f) => _ = a.hex(u32::from(f), 1, 1),
             Request::Run | Request::ReadScan => {}
-            Request::Stream(on) => a.hex(u32::from(on), 1, 1),
-        }
-    }
-}
-
-struct Args<'a> {
-    dialect: Dialect,
-    out: &'a mut Vec<u8>,
-    /// CoLa-B: the space before the binary arguments is written.
-    spaced: bool,
-}
-
-impl Args<'_> {
-    fn binary(&mut self, v: i64, size: usize) {
-        if !self.spaced {
-            // the binary arguments follow the name after exactly one space
-            self.out.push(b' ');
-            self.spaced = true;
-        }
-        self.out.extend_from_slice(&v.to_be_bytes()[8 - size..]);
-    }
-
-    /// An unsigned argument: hex in CoLa-A, `width` digits at least.
-    fn hex(&mut self, v: u32, size: usize, width: usize) {
-        match self.dialect {
-            Dialect::ColaA => {
-                let _ = write!(self.out, " {v:0width$X}");
-            }
-            Dialect::ColaB => self.binary(i64::from(v), size),
-        }
-    }
-
-    /// A signed argument: decimal with its sign in CoLa-A.
-    fn dec(&mut self, v: i64, size: usize) {
-        match self.dialect {
-            Dialect::ColaA => {
-                let _ = write!(self.out, " {v:+}");
-            }
-            Dialect::ColaB => self.binary(v, size),
+            Request::Stream(on) => _ = a.hex(u32::from(on), 1, 1),
         }
     }
 }

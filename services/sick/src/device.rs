@@ -10,7 +10,7 @@
 //! (`sEN LMDscandata`). Anything else is answered `sFA 2` or `sFA 3` (unknown method or
 //! variable), as a scanner does.
 
-use crate::cola::{Dialect, Framer, frame};
+use crate::cola::{Args, Dialect, Framer, frame};
 use crate::command::CLIENT_PASSWORD;
 use crate::config::Model;
 use crate::scandata::{Channel, ScanData};
@@ -99,15 +99,6 @@ impl Device {
         }
     }
 
-    /// How many echoes a scan telegram carries (LMS5xx: all of them with the echo filter at 1).
-    pub fn echoes_sent(&self, measured: usize) -> usize {
-        if self.echo_filter == 1 {
-            measured.min(usize::from(self.model.spec().echoes))
-        } else {
-            measured.min(1)
-        }
-    }
-
     /// Requests from the driver; the answers go to `out`, framed.
     pub fn receive(&mut self, bytes: &[u8], out: &mut Vec<u8>) {
         self.framer.push(bytes);
@@ -126,26 +117,25 @@ impl Device {
 
     fn answer(&mut self, p: &[u8]) -> Vec<u8> {
         let d = self.dialect;
-        let mut a = Reply::new(d);
         let is = |prefix: &[u8]| p.starts_with(prefix);
         let rest = |prefix: &[u8]| p.get(prefix.len()..).unwrap_or(&[]);
         if is(b"sMN SetAccessMode") {
             let args = read_args(d, rest(b"sMN SetAccessMode"), &[1, 4]);
             let ok = args.is_some_and(|v| v[1] as u32 == CLIENT_PASSWORD);
             self.logged_in = ok;
-            a.text("sAN SetAccessMode").u(u64::from(ok), 1);
+            reply(d, "sAN SetAccessMode", &[(u32::from(ok), 1)])
         } else if is(b"sMN mLMPsetscancfg") {
             if !self.logged_in {
-                return Reply::new(d).text("sFA").code(1).done();
+                return reply(d, "sFA", &[(1, 1)]);
             }
             let Some(v) = read_args(d, rest(b"sMN mLMPsetscancfg"), &[4, 2, 4, 4, 4]) else {
-                return Reply::new(d).text("sFA").code(5).done();
+                return reply(d, "sFA", &[(5, 1)]);
             };
             let spec = self.model.spec();
             let (f, res) = (v[0] as f64 * 0.01, v[2] as f64 * 1e-4);
             let fits = |a: f64, b: f64| (a - b).abs() <= 1e-3 * b;
             let code = if !spec.configurable {
-                return Reply::new(d).text("sFA").code(2).done();
+                return reply(d, "sFA", &[(2, 1)]);
             } else if !spec.modes.iter().any(|m| fits(f, m.0)) {
                 1
             } else if !spec.modes.iter().any(|m| fits(f, m.0) && fits(res, m.1)) {
@@ -155,40 +145,46 @@ impl Device {
                 self.resolution = v[2] as u32;
                 0
             };
-            a.text("sAN mLMPsetscancfg").u(code, 1);
-            a.u(u64::from(self.frequency), 4).u(1, 2);
-            a.u(u64::from(self.resolution), 4);
-            a.u(self.start as u32 as u64, 4)
-                .u(self.stop as u32 as u64, 4);
+            let (start, stop) = (self.start as u32, self.stop as u32);
+            // the result, then the mode in force: frequency, sectors, step, field
+            let (freq, step) = (self.frequency, self.resolution);
+            let mode = [
+                (code, 1),
+                (freq, 4),
+                (1, 2),
+                (step, 4),
+                (start, 4),
+                (stop, 4),
+            ];
+            reply(d, "sAN mLMPsetscancfg", &mode)
         } else if is(b"sWN LMDscandatacfg") {
             if !self.logged_in {
-                return Reply::new(d).text("sFA").code(0x0A).done();
+                return reply(d, "sFA", &[(0x0A, 1)]);
             }
             if let Some(v) = read_args(d, rest(b"sWN LMDscandatacfg"), &[1, 1, 1, 1]) {
                 self.remission = v[2] != 0;
             }
-            a.text("sWA LMDscandatacfg");
+            reply(d, "sWA LMDscandatacfg", &[])
         } else if is(b"sWN FREchoFilter") {
             if !self.logged_in || self.model.spec().echoes < 2 {
                 let code = if self.logged_in { 3 } else { 0x0A };
-                return Reply::new(d).text("sFA").code(code).done();
+                return reply(d, "sFA", &[(code, 1)]);
             }
             if let Some(v) = read_args(d, rest(b"sWN FREchoFilter"), &[1]) {
                 self.echo_filter = (v[0] as u8).min(2);
             }
-            a.text("sWA FREchoFilter");
+            reply(d, "sWA FREchoFilter", &[])
         } else if is(b"sMN Run") {
-            a.text("sAN Run").u(1, 1);
+            reply(d, "sAN Run", &[(1, 1)])
         } else if is(b"sEN LMDscandata") {
             let on = read_args(d, rest(b"sEN LMDscandata"), &[1]).is_some_and(|v| v[0] != 0);
             self.streaming = on;
-            a.text("sEA LMDscandata").u(u64::from(on), 1);
+            reply(d, "sEA LMDscandata", &[(u32::from(on), 1)])
         } else if is(b"sRN") || is(b"sWN") {
-            return Reply::new(d).text("sFA").code(3).done();
+            reply(d, "sFA", &[(3, 1)])
         } else {
-            return Reply::new(d).text("sFA").code(2).done();
+            reply(d, "sFA", &[(2, 1)])
         }
-        a.done()
     }
 
     /// A scan telegram, framed, appended to `out`: `echoes` holds the distances (mm) of each
@@ -301,51 +297,14 @@ fn read_args(d: Dialect, rest: &[u8], sizes: &[usize]) -> Option<Vec<i64>> {
     }
 }
 
-/// An answer being written.
-struct Reply {
-    d: Dialect,
-    p: Vec<u8>,
-    spaced: bool,
-}
-
-impl Reply {
-    fn new(d: Dialect) -> Self {
-        Reply {
-            d,
-            p: Vec::with_capacity(64),
-            spaced: false,
-        }
+/// An answer: `text` (the answer's command and name) and its unsigned arguments (value, bytes).
+fn reply(d: Dialect, text: &str, args: &[(u32, usize)]) -> Vec<u8> {
+    let mut p = text.as_bytes().to_vec();
+    let mut a = Args::new(d, &mut p);
+    for &(v, size) in args {
+        a.hex(v, size, 1);
     }
-
-    fn text(&mut self, t: &str) -> &mut Self {
-        self.p.extend_from_slice(t.as_bytes());
-        self
-    }
-
-    fn u(&mut self, v: u64, size: usize) -> &mut Self {
-        match self.d {
-            Dialect::ColaA => {
-                use std::io::Write;
-                let _ = write!(self.p, " {v:X}");
-            }
-            Dialect::ColaB => {
-                if !self.spaced {
-                    self.p.push(b' ');
-                    self.spaced = true;
-                }
-                self.p.extend_from_slice(&v.to_be_bytes()[8 - size..]);
-            }
-        }
-        self
-    }
-
-    fn code(&mut self, c: u64) -> &mut Self {
-        self.u(c, 1)
-    }
-
-    fn done(&mut self) -> Vec<u8> {
-        std::mem::take(&mut self.p)
-    }
+    p
 }
 
 #[cfg(test)]

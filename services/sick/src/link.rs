@@ -103,16 +103,6 @@ impl Link {
         }
     }
 
-    /// Scans published so far (the last `seq`).
-    pub fn seq(&self) -> u64 {
-        self.seq
-    }
-
-    /// The session (its counters).
-    pub fn session(&self) -> &Session {
-        &self.session
-    }
-
     /// Runs until `stop` is set: connects, streams, reconnects.
     pub fn run(&mut self, stop: &AtomicBool, mut on: impl FnMut(LinkEvent<'_>)) {
         while !stop.load(Ordering::Relaxed) {

@@ -33,7 +33,7 @@
 //! parse, a count beyond [`MAX_VALUES`] or [`MAX_CHANNELS`], or values that run past the end of
 //! the telegram give a [`ScanError`] naming the field and the byte where it went wrong.
 
-use crate::cola::Dialect;
+use crate::cola::{Args, Dialect};
 
 /// The command names a scan comes under: streamed (`sSN`) or the answer to a one-shot read
 /// (`sRA`).
@@ -228,11 +228,6 @@ impl ScanData {
         self.used = 0;
     }
 
-    /// The scan's values `i`-th channel, mutable (for encoders).
-    pub fn channel_mut(&mut self, i: usize) -> Option<&mut Channel> {
-        self.channels[..self.used].get_mut(i)
-    }
-
     /// Parses a telegram's payload (without framing) in `dialect`.
     pub fn parse(&mut self, dialect: Dialect, payload: &[u8]) -> Result<(), ScanError> {
         match dialect {
@@ -345,75 +340,47 @@ impl ScanData {
     pub fn encode(&self, dialect: Dialect, command: &[u8; 3], out: &mut Vec<u8>) {
         out.extend_from_slice(command);
         out.extend_from_slice(b" LMDscandata");
-        if dialect == Dialect::ColaB {
-            out.push(b' ');
-        }
-        let mut w = Writer { dialect, out };
-        w.u(u32::from(self.version), 2);
-        w.u(u32::from(self.device_number), 2);
-        w.u(self.serial, 4);
-        w.u(u32::from(self.device_status[0]), 1);
-        w.u(u32::from(self.device_status[1]), 1);
-        w.u(u32::from(self.telegram_counter), 2);
-        w.u(u32::from(self.scan_counter), 2);
-        w.u(self.time_since_startup_us, 4);
-        w.u(self.time_of_transmission_us, 4);
+        let mut w = Args::new(dialect, out);
+        w.hex(u32::from(self.version), 2, 1);
+        w.hex(u32::from(self.device_number), 2, 1);
+        w.hex(self.serial, 4, 1);
+        w.hex(u32::from(self.device_status[0]), 1, 1);
+        w.hex(u32::from(self.device_status[1]), 1, 1);
+        w.hex(u32::from(self.telegram_counter), 2, 1);
+        w.hex(u32::from(self.scan_counter), 2, 1);
+        w.hex(self.time_since_startup_us, 4, 1);
+        w.hex(self.time_of_transmission_us, 4, 1);
         for b in self.inputs.iter().chain(&self.outputs) {
-            w.u(u32::from(*b), 1);
+            w.hex(u32::from(*b), 1, 1);
         }
-        w.u(u32::from(self.layer_angle), 2);
-        w.u(self.scan_frequency, 4);
-        w.u(self.measurement_frequency, 4);
-        w.u(self.encoders.len() as u32, 2);
+        w.hex(u32::from(self.layer_angle), 2, 1);
+        w.hex(self.scan_frequency, 4, 1);
+        w.hex(self.measurement_frequency, 4, 1);
+        w.hex(self.encoders.len() as u32, 2, 1);
         for (p, s) in &self.encoders {
-            w.u(*p, 4);
-            w.u(u32::from(*s), 2);
+            w.hex(*p, 4, 1);
+            w.hex(u32::from(*s), 2, 1);
         }
         for bits in [16u8, 8] {
             let chans: Vec<&Channel> = self.channels().iter().filter(|c| c.bits == bits).collect();
-            w.u(chans.len() as u32, 2);
+            w.hex(chans.len() as u32, 2, 1);
             for ch in chans {
-                w.name(&ch.name);
-                w.u(ch.scale.to_bits(), 4);
-                w.u(ch.offset.to_bits(), 4);
-                w.u(ch.start_angle as u32, 4);
-                w.u(u32::from(ch.step), 2);
-                w.u(ch.values.len() as u32, 2);
+                w.text(&ch.name);
+                w.hex(ch.scale.to_bits(), 4, 1);
+                w.hex(ch.offset.to_bits(), 4, 1);
+                w.hex(ch.start_angle as u32, 4, 1);
+                w.hex(u32::from(ch.step), 2, 1);
+                w.hex(ch.values.len() as u32, 2, 1);
                 let size = if bits == 16 { 2 } else { 1 };
                 for v in &ch.values {
-                    w.u(u32::from(*v), size);
+                    w.hex(u32::from(*v), size, 1);
                 }
             }
         }
         // position, device name, comment, time stamp, event: none
         for _ in 0..5 {
-            w.u(0, 2);
+            w.hex(0, 2, 1);
         }
-    }
-}
-
-/// Writes fields in either dialect.
-struct Writer<'a> {
-    dialect: Dialect,
-    out: &'a mut Vec<u8>,
-}
-
-impl Writer<'_> {
-    fn u(&mut self, v: u32, size: usize) {
-        match self.dialect {
-            Dialect::ColaA => {
-                use std::io::Write;
-                let _ = write!(self.out, " {v:X}");
-            }
-            Dialect::ColaB => self.out.extend_from_slice(&v.to_be_bytes()[4 - size..]),
-        }
-    }
-
-    fn name(&mut self, n: &[u8; 5]) {
-        if self.dialect == Dialect::ColaA {
-            self.out.push(b' ');
-        }
-        self.out.extend_from_slice(n);
     }
 }
 
