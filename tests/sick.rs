@@ -330,7 +330,6 @@ fn sick_cola_a_real_telegrams_damage_and_a_scanner_that_goes_away() {
         // not a scan and not an answer to anything
         text(b"\x02sXX nonsense\x03"),
     ];
-    let classes = bad.len();
     sc.plan.inject.lock().expect("lock").append(&mut bad);
     sc.plan.pieces.store(3, Ordering::Relaxed);
     let more = s.scans(10, Duration::from_secs(10));
@@ -375,7 +374,6 @@ fn sick_cola_a_real_telegrams_damage_and_a_scanner_that_goes_away() {
         );
     }
     assert!(count(&faults, "link_down") >= 2, "{faults}");
-    assert_eq!(classes, 6);
 }
 
 #[test]

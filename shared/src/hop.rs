@@ -147,6 +147,46 @@ impl Latencies {
     }
 }
 
+/// One service's hop, for its periodic line: from a revolution's last packet to the sample
+/// reaching the service, the service's own work, and from that packet to what it sent.
+#[derive(Debug, Clone, Default)]
+pub struct HopLatency {
+    arrived: Latencies,
+    work: Latencies,
+    sent: Latencies,
+}
+
+impl HopLatency {
+    /// Empty windows.
+    pub fn new() -> Self {
+        HopLatency {
+            arrived: Latencies::new(),
+            work: Latencies::new(),
+            sent: Latencies::new(),
+        }
+    }
+
+    /// One sample: the last packet's `rx_ns`, the sample's arrival here, the work, µs, and the
+    /// output sent (monotonic ns).
+    pub fn push(&mut self, rx_ns: u64, arrived_ns: u64, work_us: u64, sent_ns: u64) {
+        self.arrived.push(arrived_ns.saturating_sub(rx_ns) / 1000);
+        self.work.push(work_us);
+        self.sent.push(sent_ns.saturating_sub(rx_ns) / 1000);
+    }
+
+    /// `latency per hop: last packet → {what} here …; {work} …; last packet → {output} …` and
+    /// fresh windows; `None` without a sample.
+    pub fn take(&mut self, what: &str, work: &str, output: &str) -> Option<String> {
+        let sent = self.sent.take()?;
+        let arrived = self.arrived.take().unwrap_or_default();
+        let w = self.work.take().unwrap_or_default();
+        Some(format!(
+            "latency per hop: last packet → {what} here {arrived}; {work} {w}; last packet → \
+             {output} {sent}"
+        ))
+    }
+}
+
 struct Described<'a>(&'a Hop, &'a str);
 
 impl fmt::Display for Described<'_> {
@@ -205,6 +245,21 @@ mod tests {
         l.push(9_000);
         let shown = l.take().expect("samples");
         assert!(shown.ends_with("max 9000 µs over 1025"), "{shown}");
+    }
+
+    #[test]
+    fn a_hop_line_names_its_three_spans() {
+        let mut h = HopLatency::new();
+        assert_eq!(h.take("map", "planning", "cmd_vel"), None);
+        h.push(1_000_000, 1_300_000, 400, 1_700_000);
+        assert_eq!(
+            h.take("map", "planning", "cmd_vel").as_deref(),
+            Some(
+                "latency per hop: last packet → map here p50 300 µs, p99 300 µs, max 300 µs over 1; \
+                 planning p50 400 µs, p99 400 µs, max 400 µs over 1; last packet → cmd_vel p50 700 \
+                 µs, p99 700 µs, max 700 µs over 1"
+            )
+        );
     }
 
     #[test]

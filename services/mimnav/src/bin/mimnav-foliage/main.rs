@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_foliage::step::OdomUse;
-use mimnav_shared::hop::{Latencies, record_drops};
+use mimnav_shared::hop::{HopLatency, record_drops};
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics;
@@ -61,7 +61,7 @@ fn run(config: &Config) -> Result<()> {
     let (mut spent_us, mut since_report, mut last_scan) = (0u64, 0u64, Instant::now());
     let (mut health, mut last_report) = (svc.health(), Instant::now());
     // per hop (issue 27): the last packet to here, the classifying, the last packet to the alarm
-    let mut lat = (Latencies::new(), Latencies::new(), Latencies::new());
+    let mut lat = HopLatency::new();
     svc.run(&mut health, "waiting for lidar/scan2d", |turn, h| {
         let _ = (odom_sub.heard(), scans.heard());
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
@@ -108,9 +108,7 @@ fn run(config: &Config) -> Result<()> {
                 h.faults.record("publish_failed", turn.now, e);
             }
             if rx > 0 {
-                lat.0.push(now.saturating_sub(rx) / 1000);
-                lat.1.push(u64::from(us));
-                lat.2.push(ipc::monotonic_ns().saturating_sub(rx) / 1000);
+                lat.push(rx, now, u64::from(us), ipc::monotonic_ns());
             }
             (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
             let lost = step.scan_hop().dropped() - dropped;
@@ -141,14 +139,8 @@ fn run(config: &Config) -> Result<()> {
                 hop.describe("scans")
             );
             last_report = Instant::now();
-            if let Some(sent) = lat.2.take() {
-                let (waited, work) = (lat.0.take(), lat.1.take());
-                tracing::info!(
-                    "latency per hop: last packet → scan here {}; classifying {}; last packet → \
-                     foliage/alarm sent {sent}",
-                    waited.unwrap_or_default(),
-                    work.unwrap_or_default()
-                );
+            if let Some(line) = lat.take("scan", "classifying", "foliage/alarm sent") {
+                tracing::info!("{line}");
             }
         }
         if since_report >= 100 {

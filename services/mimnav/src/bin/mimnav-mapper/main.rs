@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use mimnav_config::Config;
-use mimnav_shared::hop::{Latencies, record_drops};
+use mimnav_shared::hop::{HopLatency, record_drops};
 use mimnav_shared::ipc::{self, Listening};
 use mimnav_shared::service::{self, Service, ServiceCli};
 use mimnav_shared::topics::{self, PlanCell, map_status};
@@ -56,7 +56,7 @@ fn run(config: &Config) -> Result<()> {
     let (_odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
     let (mut spent_us, mut since_report, mut last_report) = (0u64, 0u64, Instant::now());
     // per hop (issue 27): the last packet to here, the mapping, the last packet to map/plan sent
-    let mut lat = (Latencies::new(), Latencies::new(), Latencies::new());
+    let mut lat = HopLatency::new();
     let mut health = svc.health();
     svc.run(&mut health, "waiting for lidar/points", |turn, h| {
         if turn.missed(&points_guard) {
@@ -95,10 +95,9 @@ fn run(config: &Config) -> Result<()> {
             if let Err(e) = plan_pub.publish_from_iter(mapped.header, classes.len(), plan) {
                 h.faults.record("publish_failed", turn.now, e);
             }
-            let plan_sent_us = ipc::monotonic_ns().saturating_sub(rx) / 1000;
-            lat.0.push(now.saturating_sub(rx) / 1000);
-            lat.1.push(u64::from(us));
-            lat.2.push(plan_sent_us);
+            let plan_sent = ipc::monotonic_ns();
+            let plan_sent_us = plan_sent.saturating_sub(rx) / 1000;
+            lat.push(rx, now, u64::from(us), plan_sent);
             let len = n_layers * grid.len();
             let layers = step.mapper().layers();
             if let Err(e) = layers_pub.publish_from_iter(mapped.header, len, layers) {
@@ -140,14 +139,8 @@ fn run(config: &Config) -> Result<()> {
                 hop.describe("revolutions")
             );
             (spent_us, since_report, last_report) = (0, 0, Instant::now());
-            if let Some(sent) = lat.2.take() {
-                let (waited, work) = (lat.0.take(), lat.1.take());
-                tracing::info!(
-                    "latency per hop: last packet → revolution here {}; mapping {}; last packet → \
-                     map/plan sent {sent}",
-                    waited.unwrap_or_default(),
-                    work.unwrap_or_default()
-                );
+            if let Some(line) = lat.take("revolution", "mapping", "map/plan sent") {
+                tracing::info!("{line}");
             }
         }
     })?;

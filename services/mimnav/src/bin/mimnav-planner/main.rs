@@ -13,7 +13,7 @@ use std::time::Duration;
 use anyhow::Result;
 use mimnav_config::Config;
 use mimnav_planner::pilot::{Decision, Pilot};
-use mimnav_shared::hop::{Latencies, record_drops};
+use mimnav_shared::hop::{HopLatency, record_drops};
 use mimnav_shared::ipc::{self, Listening, ValuePublisher};
 use mimnav_shared::service::{self, Health, Service, ServiceCli};
 use mimnav_shared::topics::{self, VelocityCommand};
@@ -47,9 +47,7 @@ struct Sender {
     last_status: u8,
     /// Per hop, for the periodic line: the revolution's last packet to the map's arrival here,
     /// the planning, and the last packet to the command sent (the stack's latency).
-    waited: Latencies,
-    planning: Latencies,
-    end_to_end: Latencies,
+    latency: HopLatency,
 }
 
 impl Sender {
@@ -69,9 +67,8 @@ impl Sender {
                 .record("publish_failed", std::time::Instant::now(), e);
         }
         if let Some((rx, arrived)) = map_times {
-            self.waited.push(arrived.saturating_sub(rx) / 1000);
-            self.planning.push(sent.saturating_sub(arrived) / 1000);
-            self.end_to_end.push(sent.saturating_sub(rx) / 1000);
+            let planning_us = sent.saturating_sub(arrived) / 1000;
+            self.latency.push(rx, arrived, planning_us, sent);
             tracing::debug!(
                 source_seq = d.source_seq,
                 status = d.status,
@@ -106,9 +103,7 @@ fn run(config: &Config) -> Result<()> {
     let mut sender = Sender {
         publisher: ipc::cmd_vel_publisher(node)?,
         last_status: u8::MAX,
-        waited: Latencies::new(),
-        planning: Latencies::new(),
-        end_to_end: Latencies::new(),
+        latency: HopLatency::new(),
     };
     let mut pilot = config.pilot();
     tracing::info!(inflation = ?p.inflation, "topics open: {}", topics::CMD_VEL);
@@ -170,13 +165,8 @@ fn run(config: &Config) -> Result<()> {
                 topics::MAP_PLAN,
                 hop.describe("maps")
             );
-            if let Some(e2e) = sender.end_to_end.take() {
-                let waited = sender.waited.take().unwrap_or_default();
-                let planning = sender.planning.take().unwrap_or_default();
-                tracing::info!(
-                    "latency per hop: last packet → map here {waited}; planning {planning}; \
-                     last packet → cmd_vel {e2e}"
-                );
+            if let Some(line) = sender.latency.take("map", "planning", "cmd_vel") {
+                tracing::info!("{line}");
             }
             last_report = std::time::Instant::now();
         }
