@@ -15,8 +15,8 @@ use mimnav_config::Config;
 use mimnav_shared::ipc::{self, PrivateDomain, Svc};
 use mimnav_shared::topics::{
     BaseState, EVENT_END_OF_STREAM, EVENT_NEW_DATA, FoliageHeader, FoliageReturn, Goal, MapHeader,
-    Odometry, PlanCell, Point, PointsHeader, RawPacket, ScanHeader, ScanReturn, TruthHeader,
-    VelocityCommand,
+    Odometry, PlanCell, Point, PointsHeader, RawPacket, ScanHeader, ScanReturn, SliceHeader,
+    TruthHeader, VelocityCommand,
 };
 
 use crate::util::{root, shipped_config};
@@ -144,6 +144,8 @@ macro_rules! layout {
         }
         let fields: Vec<Field> = vec![$({
             let (ty, size) = field_of(|s: &$t| &s.$f);
+            // a topic type inside another by its own name, as the tables write it
+            let ty = ty.rsplit("::").next().unwrap_or(ty);
             (offset_of!($t, $f), size, stringify!($f).to_string(), ty.to_string())
         }),+];
         let used: usize = fields.iter().map(|f| f.1).sum();
@@ -169,6 +171,7 @@ pub fn rust_layouts() -> BTreeMap<String, Layout> {
         layout!(Point, [x, y, z, time_offset_ns, distance_raw, azimuth_cdeg, intensity, laser_id, ring, return_type]),
         layout!(PointsHeader, [seq, stamp_ns, rx_mono_ns, first_packet_seq, packet_count, point_count,
             strongest_count, last_count, both_count, return_mode, product, cut_reason, reserved]),
+        layout!(SliceHeader, [revolution, index, first_point, last, reserved]),
         layout!(ScanReturn, [angle_rad, range_m, intensity, return_type, reserved]),
         layout!(ScanHeader, [seq, stamp_ns, rx_mono_ns, count, elevation_rad, laser_id, return_select, reserved]),
         layout!(RawPacket, [seq, host_ns, rx_mono_ns, len, port, reserved, data]),
@@ -273,6 +276,7 @@ fn the_documented_topics_and_qos_are_what_the_services_create() {
     let node = ipc::node(&domain.config(), "topics-doc").expect("node");
     let _ports = (
         ipc::points_subscriber(&node).expect("points"),
+        ipc::slices_subscriber(&node).expect("slices"),
         ipc::scan_subscriber(&node).expect("scan2d"),
         ipc::packets_publisher(&node).expect("packets"),
         ipc::cmd_vel_subscriber(&node).expect("cmd_vel"),
@@ -341,11 +345,13 @@ fn the_documented_topics_and_qos_are_what_the_services_create() {
             "{name}: user header size and alignment"
         );
 
-        assert_eq!(
-            qos,
-            if slice { "slice" } else { "value" },
-            "{name}: QoS kind"
-        );
+        // `slices`: the slice QoS with the buffer lidar/slices needs
+        let kinds: &[&str] = if slice {
+            &["slice", "slices"]
+        } else {
+            &["value"]
+        };
+        assert!(kinds.contains(&qos.as_str()), "{name}: QoS kind {qos}");
         let q = qos_table
             .rows
             .iter()

@@ -11,8 +11,9 @@
 //! 1. the simulator casts one packet and moves the base for one packet period;
 //! 2. when that packet completes a revolution, the base's odometry goes to the mapper, the
 //!    classifier and the planner first (the simulator publishes it before the packet);
-//! 3. the packet goes through the driver; a revolution it finishes goes to the mapper and, its
-//!    planar scan, to the classifier;
+//! 3. the packet goes through the driver; the slice of packets it completes goes to the mapper,
+//!    which bins it at once (`lidar/slices`, `velodyne.slice_packets`); a revolution it finishes
+//!    is mapped from its last slice and its planar scan goes to the classifier;
 //! 4. the map goes to the planner, whose command the simulator follows from the next packet on.
 //!
 //! The clock every step type is given is the simulator's (sensor time, ns): all inputs are
@@ -132,8 +133,11 @@ pub struct Turn {
     pub foliage: Option<FoliageHeader>,
     /// The planner's decision and the command sent for it (with [`Drive::Planner`]).
     pub command: Option<(Decision, VelocityCommand)>,
-    /// Time the map took (the mapper or a baseline), ns.
+    /// Time the map took after the revolution's last packet (the mapper's last slice and the
+    /// map, or a baseline), ns.
     pub map_ns: u64,
+    /// Time the mapper spent binning the revolution's slices before its last packet, ns.
+    pub bin_ns: u64,
     /// Time the classifier took, ns.
     pub classify_ns: u64,
     /// Time the planner took, ns.
@@ -157,6 +161,10 @@ pub struct Lockstep {
     last_scan: Vec<ScanReturn>,
     odom_seq: u64,
     packets: u64,
+    /// `velodyne.slice_packets`: the mapper bins the revolution in slices as it arrives.
+    slice_packets: u32,
+    /// Binning of the revolution under way so far, ns.
+    bin_ns: u64,
 }
 
 fn elapsed_ns(since: Instant) -> u64 {
@@ -212,6 +220,8 @@ impl Lockstep {
             last_scan: Vec::new(),
             odom_seq: 0,
             packets: 0,
+            slice_packets: v.slice_packets,
+            bin_ns: 0,
         })
     }
 
@@ -279,29 +289,47 @@ impl Lockstep {
         }
         let before = self.faults.total();
         let source = || format!("simulated packet {}", self.packets);
-        let rev = self.driver.on_datagram(
-            &step.data,
-            Kind::Data,
-            (step.first_firing_ns, now),
-            Instant::now(),
-            &mut self.faults,
-            &source,
-        );
+        let completed = (self.driver)
+            .on_datagram(
+                &step.data,
+                Kind::Data,
+                (step.first_firing_ns, now),
+                Instant::now(),
+                &mut self.faults,
+                &source,
+            )
+            .is_some();
         if self.faults.total() != before {
             return Err(RunnerError::Packet {
                 packet: self.packets,
                 faults: self.faults.summary(),
             });
         }
-        let Some(rev) = rev else {
+        // the mapper bins the revolution as it arrives, as the service does from lidar/slices
+        let (mut mapped, mut last_slice_ns) = (None, 0);
+        if self.options.map == MapSource::Intensity && self.slice_packets > 0 {
+            let (map, bin_ns) = (&mut self.map, &mut self.bin_ns);
+            self.driver.take_slices(self.slice_packets, |h, points| {
+                let started = Instant::now();
+                let m = map.slice(h, points, now);
+                match h.last {
+                    0 => *bin_ns += elapsed_ns(started),
+                    _ => last_slice_ns = elapsed_ns(started),
+                }
+                mapped = mapped.or(m);
+            });
+        }
+        if !completed {
             return Ok(None);
-        };
+        }
+        let rev = self.driver.revolution();
         let mut turn = Turn {
             points: rev.header,
             mapped: None,
             foliage: None,
             command: None,
             map_ns: 0,
+            bin_ns: std::mem::take(&mut self.bin_ns),
             classify_ns: 0,
             plan_ns: 0,
         };
@@ -310,7 +338,7 @@ impl Lockstep {
         let started = Instant::now();
         match self.options.map {
             MapSource::Intensity => {
-                turn.mapped = Some(self.map.revolution(&rev.header, &rev.points, now))
+                turn.mapped = mapped.or_else(|| self.map.revolution(&rev.header, &rev.points, now))
             }
             MapSource::LaserScan => scan_occupancy(&rev.scan, self.grid, &mut self.baseline),
             MapSource::Occupancy => {
@@ -326,7 +354,7 @@ impl Lockstep {
             }
             MapSource::None => {}
         }
-        turn.map_ns = elapsed_ns(started);
+        turn.map_ns = elapsed_ns(started) + last_slice_ns;
         let scan_header = rev.scan_header;
         if let Some(s) = &mut self.scan {
             let started = Instant::now();

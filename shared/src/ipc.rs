@@ -46,6 +46,10 @@ pub const SLICE_BUFFER: usize = 2;
 /// (`mimnav replay`): the revolutions of a short capture replayed as fast as possible all wait
 /// in it when the reader falls behind, instead of being overwritten.
 pub const REPLAY_BUFFER: usize = 16;
+/// Subscriber buffer of `lidar/slices`: more than a revolution's slices at the shipped slice
+/// size (38 in dual-return mode at 600 rpm, 4 packets each), so a mapper busy with a map misses
+/// none.
+pub const SLICES_BUFFER: usize = 64;
 /// Subscriber buffer of fixed-size topics (raw packets, commands).
 pub const SMALL_BUFFER: usize = 64;
 
@@ -332,7 +336,16 @@ where
     H: Debug + ZeroCopySend + Copy + Default + 'static,
 {
     fn open(node: &Node<Svc>, topic: &'static str, capacity: usize) -> Result<Self, IpcError> {
-        let service = slice_service::<T, H>(node, topic, SLICE_BUFFER)?;
+        Self::open_buffered(node, topic, capacity, SLICE_BUFFER)
+    }
+
+    fn open_buffered(
+        node: &Node<Svc>,
+        topic: &'static str,
+        capacity: usize,
+        buffer: usize,
+    ) -> Result<Self, IpcError> {
+        let service = slice_service::<T, H>(node, topic, buffer)?;
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(capacity.max(1))
@@ -538,6 +551,21 @@ pub type ScanSubscriber = SliceSubscriber<topics::ScanReturn, topics::ScanHeader
 /// Opens `lidar/points` for publishing revolutions of up to `max_points` points.
 pub fn points_publisher(node: &Node<Svc>, max_points: usize) -> Result<PointsPublisher, IpcError> {
     SlicePublisher::open(node, topics::LIDAR_POINTS, max_points)
+}
+
+/// Publisher of `lidar/slices`.
+pub type SlicesPublisher = SlicePublisher<topics::Point, topics::SliceHeader>;
+/// Subscriber of `lidar/slices`.
+pub type SlicesSubscriber = SliceSubscriber<topics::Point, topics::SliceHeader>;
+
+/// Opens `lidar/slices` for publishing slices of up to `max_points` points.
+pub fn slices_publisher(node: &Node<Svc>, max_points: usize) -> Result<SlicesPublisher, IpcError> {
+    SlicePublisher::open_buffered(node, topics::LIDAR_SLICES, max_points, SLICES_BUFFER)
+}
+
+/// Opens `lidar/slices` for receiving.
+pub fn slices_subscriber(node: &Node<Svc>) -> Result<SlicesSubscriber, IpcError> {
+    SliceSubscriber::open(node, topics::LIDAR_SLICES, SLICES_BUFFER)
 }
 
 /// Opens `lidar/points` for receiving.

@@ -18,6 +18,10 @@ use iceoryx2::prelude::ZeroCopySend;
 
 /// Topic of one assembled lidar revolution: `[Point]` with a [`PointsHeader`].
 pub const LIDAR_POINTS: &str = "mimnav/lidar/points";
+/// Topic of a revolution's points as the driver assembles them, a few packets at a time:
+/// `[Point]` with a [`SliceHeader`]. The mapper bins them while the revolution arrives; the
+/// whole revolution still follows on [`LIDAR_POINTS`].
+pub const LIDAR_SLICES: &str = "mimnav/lidar/slices";
 /// Topic of one laser of a revolution as a planar scan: `[ScanReturn]` with a [`ScanHeader`].
 pub const LIDAR_SCAN2D: &str = "mimnav/lidar/scan2d";
 /// Topic of the raw sensor packets, one [`RawPacket`] per datagram (optional, off by default).
@@ -123,6 +127,25 @@ pub struct PointsHeader {
     pub reserved: u8,
 }
 
+/// User header of a `lidar/slices` sample: the next whole packets of a revolution.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("mimnav/SliceHeader/v1")]
+pub struct SliceHeader {
+    /// The revolution's header as far as it is assembled: `seq`, `stamp_ns`, `first_packet_seq`,
+    /// `return_mode` and `product` hold from the first slice on, the counts and `rx_mono_ns`
+    /// grow; in the last slice it is the header `lidar/points` carries.
+    pub revolution: PointsHeader,
+    /// The slice's number within its revolution, from 0.
+    pub index: u32,
+    /// Index within the revolution of the slice's first point.
+    pub first_point: u32,
+    /// 1 in the revolution's last slice (which may hold no point), else 0.
+    pub last: u8,
+    /// Reserved, zero.
+    pub reserved: [u8; 7],
+}
+
 /// Why a revolution was cut where it was ([`PointsHeader::cut_reason`]).
 pub mod cut_reason {
     /// The azimuth passed the cut (a full turn): the normal case.
@@ -225,6 +248,7 @@ mod tests {
         assert_eq!(core::mem::size_of::<Point>(), 24);
         assert_eq!(core::mem::size_of::<ScanReturn>(), 12);
         assert_eq!(core::mem::size_of::<PointsHeader>(), 56);
+        assert_eq!(core::mem::size_of::<SliceHeader>(), 72);
         assert_eq!(core::mem::size_of::<ScanHeader>(), 40);
         assert_eq!(core::mem::size_of::<FoliageReturn>(), 12);
         assert_eq!(core::mem::size_of::<BaseState>(), 48);

@@ -134,6 +134,37 @@ pub enum OdomInput {
     Missing,
 }
 
+/// How a revolution's points are de-skewed: each moves from its firing time into the robot's
+/// frame at `t_ref_ns` as the robot moves at (v, ω) meanwhile. A point fired after `t_ref_ns`
+/// moves back.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deskew {
+    /// Forward speed, m/s.
+    pub v: f32,
+    /// Turn rate, rad/s.
+    pub omega: f32,
+    /// The reference time, ns from the revolution's stamp (as [`Point::time_offset_ns`]).
+    pub t_ref_ns: u32,
+}
+
+impl Deskew {
+    /// With fresh odometry's (v, ω) to `t_ref_ns`; none (every point where it was measured)
+    /// with stale or missing odometry.
+    pub fn of(odom: OdomInput, t_ref_ns: u32) -> Self {
+        match odom {
+            OdomInput::Fresh(o) => Deskew {
+                v: o.v as f32,
+                omega: o.omega as f32,
+                t_ref_ns,
+            },
+            _ => Deskew {
+                t_ref_ns,
+                ..Deskew::default()
+            },
+        }
+    }
+}
+
 /// What one update found.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct UpdateStats {
@@ -213,6 +244,12 @@ pub struct Mapper {
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
     spikes: Vec<bool>,
+    /// How the revolution being binned is de-skewed.
+    deskew: Deskew,
+    /// What the revolution being binned has found so far.
+    stats: UpdateStats,
+    /// Points of the revolution binned so far.
+    next_index: u32,
 }
 
 /// A firing's last return along its laser's ring.
@@ -305,6 +342,9 @@ impl Mapper {
             rings: vec![Vec::new(); 16],
             last_rings: vec![Vec::new(); 16],
             spikes: Vec::new(),
+            deskew: Deskew::default(),
+            stats: UpdateStats::default(),
+            next_index: 0,
             params,
         }
     }
@@ -377,12 +417,39 @@ impl Mapper {
         self.layer[i * self.bounds.len() + j].count
     }
 
-    /// Maps one revolution. `now_ns` is the revolution's stamp (ages the glass memory).
+    /// Maps one revolution. `now_ns` is the revolution's stamp (ages the glass memory). The
+    /// points are de-skewed to the revolution's last point with the odometry's (v, ω): the same
+    /// as [`begin`](Self::begin), [`bin_slice`](Self::bin_slice) over the points in any number of
+    /// pieces and [`finish`](Self::finish).
     pub fn update(&mut self, points: &[Point], odom: OdomInput, now_ns: u64) -> UpdateStats {
-        let mut stats = UpdateStats::default();
+        let t_end = points.last().map_or(0, |p| p.time_offset_ns);
+        self.begin(Deskew::of(odom, t_end));
+        self.bin_slice(points);
+        self.finish(odom, now_ns)
+    }
+
+    /// Starts a revolution: forgets the last one's cells, rings and reach; its points will be
+    /// de-skewed by `deskew`.
+    pub fn begin(&mut self, deskew: Deskew) {
         self.reset();
-        // equations 1–2, the rings for the glass spike and the dual-return cues
-        self.bin(points, odom, &mut stats);
+        self.deskew = deskew;
+        self.stats = UpdateStats::default();
+        self.next_index = 0;
+    }
+
+    /// Bins the next points of the revolution, in firing order (equations 1–2): a slice must
+    /// hold whole packets, so that both returns of a firing are in it.
+    pub fn bin_slice(&mut self, points: &[Point]) {
+        let mut stats = self.stats;
+        self.bin(points, &mut stats);
+        self.stats = stats;
+        self.next_index = self.next_index.wrapping_add(points.len() as u32);
+    }
+
+    /// Ends the revolution begun by [`begin`](Self::begin): glass, classes, memories and cost
+    /// from what was binned. `now_ns` is the revolution's stamp (ages the memories).
+    pub fn finish(&mut self, odom: OdomInput, now_ns: u64) -> UpdateStats {
+        let mut stats = self.stats;
         // glass seen in this revolution (Algorithm 1 and equation 6's layer difference)
         self.detect_glass();
         stats.glass_detected = self.glass_cells.len() as u32;
@@ -467,7 +534,7 @@ impl Mapper {
     /// Bins every point into its cell's layers (equations 1–2), de-skewed by the odometry's
     /// (v, ω); collects the near-horizontal rings for the glass spike and the dual-return and
     /// surface cues.
-    fn bin(&mut self, points: &[Point], odom: OdomInput, stats: &mut UpdateStats) {
+    fn bin(&mut self, points: &[Point], stats: &mut UpdateStats) {
         let m = self.bounds.len();
         let mp = &self.params.mapper;
         let surface_cue = mp.surface_min_returns > 0;
@@ -475,14 +542,10 @@ impl Mapper {
         let ground_z = -(self.params.robot.sensor_height_m - mp.ground_clearance_m) as f32;
         let zero_b = self.bounds[self.roles[2]];
         // De-skew: a revolution takes 0.05–0.2 s, in which a turning robot rotates by up to
-        // several degrees. Each point moves into the robot frame at the revolution's end, from
-        // its own firing time, with the odometry's (v, ω) (small-angle rotation, exact enough
-        // below 0.3 rad).
-        let (v, omega) = match odom {
-            OdomInput::Fresh(o) => (o.v as f32, o.omega as f32),
-            _ => (0.0, 0.0),
-        };
-        let t_end = points.last().map_or(0, |p| p.time_offset_ns);
+        // several degrees. Each point moves into the robot frame at the reference time, from
+        // its own firing time, with (v, ω) (small-angle rotation, exact enough below 0.3 rad).
+        let Deskew { v, omega, t_ref_ns } = self.deskew;
+        let first_index = self.next_index;
         let full_scale = mp.full_scale as f32;
         let gamma_abs = mp.gamma as f32 * full_scale;
         // the single-echo and stopped cues only count returns at least this bright: a beam that
@@ -496,7 +559,7 @@ impl Mapper {
             let mut az_cdeg = p.azimuth_cdeg;
             let (mut sin_t, mut cos_t, mut shift) = (0.0f32, 1.0f32, 0.0f32);
             if deskew {
-                let dt = t_end.saturating_sub(p.time_offset_ns) as f32 * 1e-9;
+                let dt = (i64::from(t_ref_ns) - i64::from(p.time_offset_ns)) as f32 * 1e-9;
                 let th = omega * dt;
                 (sin_t, cos_t, shift) = (th, 1.0 - 0.5 * th * th, v * dt);
                 az_cdeg = ((i32::from(az_cdeg) + (th.to_degrees() * 100.0) as i32)
@@ -526,7 +589,7 @@ impl Mapper {
                         intensity: f32::from(p.intensity),
                         range_m: horizontal,
                     },
-                    k as u32,
+                    first_index.wrapping_add(k as u32),
                     p.x,
                     p.y,
                 ));

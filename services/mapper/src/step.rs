@@ -13,9 +13,9 @@
 
 use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{LidarMount, MountTransform, NonFiniteOdometry, check_odometry, pose2};
-use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, map_status};
+use mimnav_shared::topics::{MapHeader, Odometry, Point, PointsHeader, SliceHeader, map_status};
 
-use crate::{Mapper, MapperParams, Odom, OdomInput, UpdateStats};
+use crate::{Deskew, Mapper, MapperParams, Odom, OdomInput, UpdateStats};
 
 /// One revolution mapped: the header to publish (its `processing_us` is the caller's to fill)
 /// and what the mapper found.
@@ -49,6 +49,25 @@ pub struct MapStep {
     odom: Option<Odometry>,
     seq: u64,
     points_hop: Hop,
+    /// The revolution being binned from `lidar/slices`.
+    building: Option<Building>,
+    /// How the next revolution binned from slices is de-skewed: with the (v, ω) the last map
+    /// was made with, to the last map's last firing time.
+    next_deskew: Deskew,
+    /// The last revolution mapped from its slices: its `lidar/points` sample is not mapped again.
+    sliced_seq: Option<u64>,
+    /// The last revolution whose slices broke off (counted once each).
+    broken_seq: Option<u64>,
+    broken: u64,
+}
+
+/// A revolution being binned from its slices: what the next slice must be.
+#[derive(Debug, Clone, Copy)]
+struct Building {
+    seq: u64,
+    index: u32,
+    points: u32,
+    last_offset_ns: u32,
 }
 
 impl MapStep {
@@ -62,6 +81,11 @@ impl MapStep {
             odom: None,
             seq: 0,
             points_hop: Hop::new(),
+            building: None,
+            next_deskew: Deskew::default(),
+            sliced_seq: None,
+            broken_seq: None,
+            broken: 0,
         }
     }
 
@@ -96,10 +120,103 @@ impl MapStep {
         Ok(())
     }
 
-    /// Maps the revolution `points` (with its header) that arrived at `now`.
-    pub fn revolution(&mut self, h: &PointsHeader, points: &[Point], now: u64) -> Mapped {
-        self.points_hop.see(h.seq);
-        let (input, status) = match self.odom {
+    /// Revolutions whose slices broke off (a slice missing or out of order): each is mapped
+    /// from `lidar/points` instead, once it is whole.
+    pub fn broken_slices(&self) -> u64 {
+        self.broken
+    }
+
+    /// One `lidar/slices` sample that arrived at `now`: bins its points at once (issue 27), and
+    /// on the revolution's last slice maps it, bit for bit the map
+    /// [`revolution`](Self::revolution) makes of the whole revolution. The de-skew cannot wait
+    /// for the revolution's end, so both move every point to the last map's last firing time
+    /// (a revolution's span after its first firing) with the last map's (v, ω): the robot's
+    /// motion predicted one revolution on. A revolution whose slices break off (one missing,
+    /// out of order, or fewer points than its header says) is counted in
+    /// [`broken_slices`](Self::broken_slices) and left to [`revolution`](Self::revolution).
+    pub fn slice(&mut self, h: &SliceHeader, points: &[Point], now: u64) -> Option<Mapped> {
+        let seq = h.revolution.seq;
+        if h.index == 0 {
+            if let Some(b) = self.building.take() {
+                self.break_off(b.seq);
+            }
+            self.mapper.begin(self.next_deskew);
+            self.building = Some(Building {
+                seq,
+                index: 0,
+                points: 0,
+                last_offset_ns: 0,
+            });
+        }
+        let expected = self
+            .building
+            .as_ref()
+            .is_some_and(|b| b.seq == seq && b.index == h.index && b.points == h.first_point);
+        if !expected {
+            if let Some(b) = self.building.take() {
+                self.break_off(b.seq);
+            }
+            self.break_off(seq);
+            return None;
+        }
+        let points = match &self.mount {
+            Some(t) => {
+                mount_points(t, points, &mut self.mounted);
+                &self.mounted[..]
+            }
+            None => points,
+        };
+        self.mapper.bin_slice(points);
+        let b = self.building.as_mut()?;
+        b.index += 1;
+        b.points = b.points.saturating_add(points.len() as u32);
+        if let Some(p) = points.last() {
+            b.last_offset_ns = p.time_offset_ns;
+        }
+        if h.last == 0 {
+            return None;
+        }
+        let b = self.building.take()?;
+        if b.points != h.revolution.point_count {
+            self.break_off(seq);
+            return None;
+        }
+        self.sliced_seq = Some(seq);
+        Some(self.finish(&h.revolution, b.last_offset_ns, now))
+    }
+
+    fn break_off(&mut self, seq: u64) {
+        if self.broken_seq != Some(seq) {
+            self.broken_seq = Some(seq);
+            self.broken += 1;
+        }
+    }
+
+    /// Maps the revolution `points` (with its header) that arrived at `now`, de-skewed as
+    /// [`slice`](Self::slice) says; `None` when its slices have mapped it already, or a later
+    /// one's have.
+    pub fn revolution(&mut self, h: &PointsHeader, points: &[Point], now: u64) -> Option<Mapped> {
+        if self.sliced_seq.is_some_and(|s| h.seq <= s && s - h.seq < 8) {
+            return None;
+        }
+        let points = match &self.mount {
+            Some(t) => {
+                mount_points(t, points, &mut self.mounted);
+                &self.mounted[..]
+            }
+            None => points,
+        };
+        // de-skewed as its slices would have been: the same map whichever way it came
+        self.building = None;
+        self.mapper.begin(self.next_deskew);
+        self.mapper.bin_slice(points);
+        let t_end = points.last().map_or(0, |p| p.time_offset_ns);
+        Some(self.finish(h, t_end, now))
+    }
+
+    /// The odometry a revolution ending at `now` is mapped with, and the map's status.
+    fn input(&self, now: u64) -> (OdomInput, u8) {
+        match self.odom {
             None => (OdomInput::Missing, map_status::ODOM_MISSING),
             Some(o) if now.saturating_sub(o.rx_mono_ns) > self.odom_max_age_ns => {
                 (OdomInput::Stale, map_status::ODOM_STALE)
@@ -112,15 +229,16 @@ impl MapStep {
                 }),
                 0,
             ),
-        };
-        let points = match &self.mount {
-            Some(t) => {
-                mount_points(t, points, &mut self.mounted);
-                &self.mounted
-            }
-            None => points,
-        };
-        let stats = self.mapper.update(points, input, h.stamp_ns);
+        }
+    }
+
+    /// Ends the revolution binned into the mapper (its last firing at `t_end_ns`): its map and
+    /// header; the next revolution's slices are de-skewed with this one's odometry.
+    fn finish(&mut self, h: &PointsHeader, t_end_ns: u32, now: u64) -> Mapped {
+        self.points_hop.see(h.seq);
+        let (input, status) = self.input(now);
+        self.next_deskew = Deskew::of(input, t_end_ns);
+        let stats = self.mapper.finish(input, h.stamp_ns);
         let o = self.odom.unwrap_or_default();
         let grid = self.mapper.params().grid;
         let header = MapHeader {
@@ -200,7 +318,9 @@ mod tests {
     fn the_header_names_the_revolution_and_the_odometry_and_counts_maps() {
         let mut step = MapStep::new(MapperParams::default(), S / 2);
         step.odom(&odom(10 * S)).expect("good odometry");
-        let m = step.revolution(&points_header(3), &[], 10 * S);
+        let m = step
+            .revolution(&points_header(3), &[], 10 * S)
+            .expect("mapped");
         let h = m.header;
         assert_eq!(
             (h.seq, h.source_seq, h.stamp_ns, h.rx_mono_ns),
@@ -217,7 +337,10 @@ mod tests {
         );
         assert_eq!((h.status, m.describe()), (0, "mapping"));
         assert_eq!(
-            step.revolution(&points_header(4), &[], 10 * S).header.seq,
+            step.revolution(&points_header(4), &[], 10 * S)
+                .expect("mapped")
+                .header
+                .seq,
             1
         );
         assert_eq!(step.maps(), 2);
@@ -229,7 +352,8 @@ mod tests {
     fn revolutions_that_never_reached_the_mapper_are_counted_dropped() {
         let mut step = MapStep::new(MapperParams::default(), S / 2);
         for seq in [3, 4, 7, 8] {
-            step.revolution(&points_header(seq), &[], 10 * S);
+            step.revolution(&points_header(seq), &[], 10 * S)
+                .expect("mapped");
         }
         let hop = step.points_hop();
         assert_eq!((hop.received(), hop.dropped()), (4, 2));
@@ -239,17 +363,22 @@ mod tests {
     #[test]
     fn missing_and_stale_odometry_are_named_in_the_header() {
         let mut step = MapStep::new(MapperParams::default(), S / 2);
-        let m = step.revolution(&points_header(0), &[], 10 * S);
+        let m = step
+            .revolution(&points_header(0), &[], 10 * S)
+            .expect("mapped");
         assert_eq!(m.header.status, map_status::ODOM_MISSING);
         assert!(m.describe().contains("no odometry"));
         step.odom(&odom(10 * S)).expect("good odometry");
         assert_eq!(
             step.revolution(&points_header(1), &[], 10 * S + S / 2)
+                .expect("mapped")
                 .header
                 .status,
             0
         );
-        let m = step.revolution(&points_header(2), &[], 10 * S + S / 2 + 1);
+        let m = step
+            .revolution(&points_header(2), &[], 10 * S + S / 2 + 1)
+            .expect("mapped");
         assert_eq!(m.header.status, map_status::ODOM_STALE);
         assert!(m.describe().contains("stale odometry"));
     }
@@ -278,7 +407,9 @@ mod tests {
         ] {
             assert_eq!(step.odom(&bad), Err(NonFiniteOdometry(7)));
         }
-        let m = step.revolution(&points_header(0), &[], 11 * S);
+        let m = step
+            .revolution(&points_header(0), &[], 11 * S)
+            .expect("mapped");
         assert_eq!(m.header.status, map_status::ODOM_STALE);
         assert_eq!((m.header.x, m.header.y), (1.0, 2.0), "the last good pose");
     }

@@ -58,7 +58,7 @@ fn issue23_3_non_finite_values_accepted_odometry_never_breaks_the_mapper() {
                 good = Some((x, y, yaw));
             }
             let h = PointsHeader { seq: i as u64, stamp_ns: t, rx_mono_ns: t, ..PointsHeader::default() };
-            let m = step.revolution(&h, &points, t);
+            let m = step.revolution(&h, &points, t).expect("mapped");
             prop_assert!(m.header.x.is_finite() && m.header.y.is_finite() && m.header.yaw.is_finite());
             if let Some(g) = good {
                 // the header carries the last good odometry, never a refused one

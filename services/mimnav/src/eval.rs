@@ -244,7 +244,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     };
     while let Some(turn) = run.next_revolution()? {
         episode.revolutions += 1;
-        episode.map_ns += u128::from(turn.map_ns + turn.classify_ns);
+        episode.map_ns += u128::from(turn.bin_ns + turn.map_ns + turn.classify_ns);
         episode.plan_ns += u128::from(turn.plan_ns);
         episode.alarms += u64::from(turn.foliage.is_some_and(|f| f.alarm != 0));
         if let Some((_, c)) = turn.command

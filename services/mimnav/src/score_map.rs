@@ -90,7 +90,7 @@ pub fn score_world(
             break;
         };
         seen += 1;
-        mapper_ns += u128::from(turn.map_ns);
+        mapper_ns += u128::from(turn.bin_ns + turn.map_ns);
         let (sim, classes) = (stack.sim(), stack.classes());
         let pose = sim.base().pose;
         sim.truth(grid, &mut truth);

@@ -38,6 +38,9 @@ impl ScanReturnSelect {
     }
 }
 
+/// Most packets `velodyne.slice_packets` may ask for (a slice's capacity on `lidar/slices`).
+pub const MAX_SLICE_PACKETS: u32 = 64;
+
 /// The VLP-16 driver (`[velodyne]`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -85,6 +88,10 @@ pub struct VelodyneConfig {
     pub scan_return: ScanReturnSelect,
     /// Publish every raw datagram on `lidar/packets`.
     pub publish_packets: bool,
+    /// Packets per `lidar/slices` sample: the mapper bins a revolution while it arrives, this
+    /// many packets at a time (the revolution's last slice holds what is left); 0: no slices,
+    /// the mapper maps each revolution from `lidar/points` once it is whole.
+    pub slice_packets: u32,
     /// Interval of the statistics log line, seconds.
     pub stats_interval_s: f64,
 }
@@ -112,6 +119,7 @@ impl Default for VelodyneConfig {
             scan_laser: 14,
             scan_return: ScanReturnSelect::Last,
             publish_packets: false,
+            slice_packets: 4,
             stats_interval_s: 10.0,
         }
     }
@@ -144,6 +152,12 @@ impl VelodyneConfig {
             ),
         );
         r.check("velodyne.scan_laser", f64::from(self.scan_laser), 0.0, 15.0);
+        r.check(
+            "velodyne.slice_packets",
+            f64::from(self.slice_packets),
+            0.0,
+            f64::from(MAX_SLICE_PACKETS),
+        );
         r.check(
             "velodyne.stats_interval_s",
             self.stats_interval_s,

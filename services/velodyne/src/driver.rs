@@ -7,7 +7,7 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use mimnav_shared::faults::Faults;
-use mimnav_shared::topics::{DATA_PACKET_LEN, RawPacket};
+use mimnav_shared::topics::{DATA_PACKET_LEN, Point, RawPacket, SliceHeader};
 
 use crate::packet::{POSITION_PACKET_LEN, PositionPacket, PpsStatus};
 use crate::revolution::{Assembler, AssemblerConfig, Revolution};
@@ -215,6 +215,17 @@ impl Driver {
             raw.data.copy_from_slice(bytes);
             raw
         })
+    }
+
+    /// The last revolution completed.
+    pub fn revolution(&self) -> &Revolution {
+        self.assembler.revolution()
+    }
+
+    /// The points assembled since the last call, as `lidar/slices` samples of `packets` packets
+    /// (see [`Assembler::take_slices`]); call it after every datagram and [`finish`](Self::finish).
+    pub fn take_slices(&mut self, packets: u32, emit: impl FnMut(&SliceHeader, &[Point])) {
+        self.assembler.take_slices(packets, emit);
     }
 
     /// The partial revolution at the end of a capture, if any.

@@ -14,7 +14,7 @@
 use mimnav_shared::config::seconds_ns;
 
 use crate::config::VelodyneConfig;
-use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, cut_reason};
+use mimnav_shared::topics::{Point, PointsHeader, ScanHeader, ScanReturn, SliceHeader, cut_reason};
 
 use crate::decode::{Decoder, PacketCounts};
 use crate::packet::{BLOCKS, CHANNELS, DataPacket, DecodeError};
@@ -68,6 +68,12 @@ impl AssemblerConfig {
 /// `rpm`, in dual-return mode (every channel of every block pair giving two returns).
 pub fn max_points_per_revolution(rpm: f64, max_duration_s: f64) -> usize {
     max_packets_per_revolution(rpm, max_duration_s) * (BLOCKS / 2) * CHANNELS * 2
+}
+
+/// Most points a `lidar/slices` sample of `packets` packets holds (every channel of every block
+/// a point, as dual-return mode gives).
+pub fn max_slice_points(packets: u32) -> usize {
+    packets as usize * BLOCKS * CHANNELS
 }
 
 /// Worst-case data packets of a revolution: the longer of one turn and `max_duration_s`, at the
@@ -186,6 +192,20 @@ pub struct Assembler {
     cutter: TurnCutter,
     next_seq: u64,
     packet_seq: u64,
+    slicing: Slicing,
+}
+
+/// What of the revolutions has been handed out as slices ([`Assembler::take_slices`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Slicing {
+    /// Points of the current revolution handed out.
+    sent: usize,
+    /// Packets added to the current revolution since its last slice.
+    pending: u32,
+    /// The number of the current revolution's next slice.
+    index: u32,
+    /// The completed revolution's last slice, still to hand out: from this point, numbered so.
+    tail: Option<(usize, u32)>,
 }
 
 impl Assembler {
@@ -204,6 +224,48 @@ impl Assembler {
             out,
             next_seq: 0,
             packet_seq: 0,
+            slicing: Slicing::default(),
+        }
+    }
+
+    /// The last revolution completed (by [`push`](Self::push) or [`finish`](Self::finish)).
+    pub fn revolution(&self) -> &Revolution {
+        &self.out
+    }
+
+    /// Hands out the points assembled since the last call as slices, in order (called after
+    /// every [`push`](Self::push) and [`finish`](Self::finish)): the last slice of a revolution
+    /// just completed (it may hold no point); else the current revolution's next slice once
+    /// `packets` packets wait in it (0: none before the revolution ends). Every revolution
+    /// comes out whole, in slices of whole packets numbered from 0.
+    pub fn take_slices(&mut self, packets: u32, mut emit: impl FnMut(&SliceHeader, &[Point])) {
+        // the next revolution's first slice waits for the next call: whoever maps the last one
+        // reads its map before the next one begins
+        if let Some((from, index)) = self.slicing.tail.take() {
+            let header = SliceHeader {
+                revolution: self.out.header,
+                index,
+                first_point: from as u32,
+                last: 1,
+                reserved: [0; 7],
+            };
+            emit(&header, self.out.points.get(from..).unwrap_or_default());
+            return;
+        }
+        let sl = &mut self.slicing;
+        if packets > 0 && sl.pending >= packets {
+            let header = SliceHeader {
+                revolution: PointsHeader {
+                    seq: self.next_seq,
+                    ..self.cur.header
+                },
+                index: sl.index,
+                first_point: sl.sent as u32,
+                last: 0,
+                reserved: [0; 7],
+            };
+            emit(&header, self.cur.points.get(sl.sent..).unwrap_or_default());
+            (sl.sent, sl.pending, sl.index) = (self.cur.points.len(), 0, sl.index + 1);
         }
     }
 
@@ -307,11 +369,17 @@ impl Assembler {
         h.rx_mono_ns = rx_mono_ns;
         cur.last_azimuth = pkt.azimuth(BLOCKS - 1);
         self.packet_seq += 1;
+        self.slicing.pending += 1;
     }
 
     fn complete(&mut self, reason: u8) {
         std::mem::swap(&mut self.cur, &mut self.out);
         self.cur.clear();
+        let sl = &mut self.slicing;
+        *sl = Slicing {
+            tail: Some((sl.sent, sl.index)),
+            ..Slicing::default()
+        };
         let out = &mut self.out;
         out.header.seq = self.next_seq;
         out.header.cut_reason = reason;

@@ -1,8 +1,9 @@
 //! `mimnav-mapper`: the map builder service.
 //!
-//! Wiring only: every revolution of `lidar/points`, with the latest `odom`, goes through the
-//! library's [`MapStep`]; its map goes out on `map/plan` (first: the planner waits for it) and
-//! `map/layers`. The points topic has a deadline of `mapper.points_deadline_s`: a revolution
+//! Wiring only: every revolution, with the latest `odom`, goes through the library's
+//! [`MapStep`] — slice by slice from `lidar/slices` as it arrives, or whole from `lidar/points`
+//! when no slices come or theirs broke off; its map goes out on `map/plan` (first: the planner
+//! waits for it) and `map/layers`. The points topic has a deadline of `mapper.points_deadline_s`: a revolution
 //! later than that is reported (rate-limited) as stale input; the loop goes on.
 
 use std::process::ExitCode;
@@ -10,9 +11,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::Result;
 use mimnav_config::Config;
+use mimnav_mapper::step::{MapStep, Mapped};
 use mimnav_shared::hop::{HopLatency, record_drops};
 use mimnav_shared::ipc::{self, Listening};
-use mimnav_shared::service::{self, Service, ServiceCli};
+use mimnav_shared::service::{self, Health, Service, ServiceCli};
 use mimnav_shared::topics::{self, PlanCell, map_status};
 
 /// The map builder: lidar/points + odom → map/layers + map/plan.
@@ -38,6 +40,7 @@ fn main() -> ExitCode {
 fn run(config: &Config) -> Result<()> {
     let svc = Service::open(config, "mapper")?;
     let points = ipc::points_subscriber(svc.node())?;
+    let slices = ipc::slices_subscriber(svc.node())?;
     let odom_sub = ipc::odom_subscriber(svc.node())?;
     let mut step = config.map_step();
     let (grid, n_layers) = (step.mapper().params().grid, step.mapper().layer_count());
@@ -53,10 +56,18 @@ fn run(config: &Config) -> Result<()> {
     );
     let deadline = Duration::from_secs_f64(config.mapper.points_deadline_s);
     let points_guard = svc.on_deadline(&points, deadline)?;
+    let _slices_guard = svc.on_data(&slices)?;
     let (_odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
-    let (mut spent_us, mut since_report, mut last_report) = (0u64, 0u64, Instant::now());
-    // per hop (issue 27): the last packet to here, the mapping, the last packet to map/plan sent
-    let mut lat = HopLatency::new();
+    let mut out = Output {
+        plan_pub,
+        layers_pub,
+        len: n_layers * grid.len(),
+        lat: HopLatency::new(),
+        spent_us: 0,
+        since_report: 0,
+        dropped: 0,
+    };
+    let mut last_report = Instant::now();
     let mut health = svc.health();
     svc.run(&mut health, "waiting for lidar/points", |turn, h| {
         if turn.missed(&points_guard) {
@@ -67,8 +78,41 @@ fn run(config: &Config) -> Result<()> {
             h.sd.status(&what);
             h.faults.record("stale_points", turn.now, what);
         }
-        let _ = (odom_sub.heard(), points.heard());
+        let _ = (odom_sub.heard(), points.heard(), slices.heard());
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
+        // the revolution binned slice by slice as it arrives (issue 27); mapped on its last
+        loop {
+            let sample = match slices.receive() {
+                Ok(Some(s)) => s,
+                Ok(None) => break,
+                Err(e) => {
+                    h.faults.record("receive_failed", turn.now, e);
+                    break;
+                }
+            };
+            let sh = *sample.user_header();
+            if sh.last != 0 {
+                // the odometry published before the revolution's last packet
+                h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
+            }
+            let (started, now, broken) =
+                (Instant::now(), ipc::monotonic_ns(), step.broken_slices());
+            let mapped = step.slice(&sh, sample.payload(), now);
+            drop(sample);
+            if step.broken_slices() != broken {
+                let what = format!(
+                    "the slices of revolution {} broke off at slice {}: it is mapped from {} instead",
+                    sh.revolution.seq,
+                    sh.index,
+                    topics::LIDAR_POINTS
+                );
+                h.faults.record("broken_slices", turn.now, what);
+            }
+            if let Some(mapped) = mapped {
+                out.send(&step, mapped, sh.revolution.rx_mono_ns, (started, now), h, turn.now);
+            }
+        }
+        // whole revolutions: mapped here when no slices came, or theirs broke off
         loop {
             let sample = match points.receive() {
                 Ok(Some(s)) => s,
@@ -79,67 +123,27 @@ fn run(config: &Config) -> Result<()> {
                 }
             };
             let (started, now) = (Instant::now(), ipc::monotonic_ns());
-            let (rx, dropped) = (sample.user_header().rx_mono_ns, step.points_hop().dropped());
-            let mut mapped = step.revolution(sample.user_header(), sample.payload(), now);
+            let rx = sample.user_header().rx_mono_ns;
+            let mapped = step.revolution(sample.user_header(), sample.payload(), now);
             drop(sample);
-            let lost = step.points_hop().dropped() - dropped;
-            let what = ("revolutions", topics::LIDAR_POINTS, "mapper");
-            record_drops(&mut h.faults, "dropped_revolutions", turn.now, lost, what);
-            if mapped.header.status == map_status::ODOM_STALE {
-                h.faults.record("stale_odom", turn.now, mapped.describe());
+            if let Some(mapped) = mapped {
+                out.send(&step, mapped, rx, (started, now), h, turn.now);
             }
-            let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
-            mapped.header.processing_us = us;
-            let (classes, cost) = (step.mapper().classes(), step.mapper().cost());
-            let plan = (classes.iter().zip(cost)).map(|(&class, &cost)| PlanCell { class, cost });
-            if let Err(e) = plan_pub.publish_from_iter(mapped.header, classes.len(), plan) {
-                h.faults.record("publish_failed", turn.now, e);
-            }
-            let plan_sent = ipc::monotonic_ns();
-            let plan_sent_us = plan_sent.saturating_sub(rx) / 1000;
-            lat.push(rx, now, u64::from(us), plan_sent);
-            let len = n_layers * grid.len();
-            let layers = step.mapper().layers();
-            if let Err(e) = layers_pub.publish_from_iter(mapped.header, len, layers) {
-                h.faults.record("publish_failed", turn.now, e);
-            }
-            let (hd, s) = (&mapped.header, &mapped.stats);
-            tracing::debug!(
-                seq = hd.seq,
-                source_seq = hd.source_seq,
-                // from the revolution's last packet to here: the driver's publish and the wake-up
-                waited_us = now.saturating_sub(rx) / 1000,
-                processing_us = us,
-                plan_sent_us,
-                glass_detected = s.glass_detected,
-                glass_memory = s.glass_memory,
-                surface_found = s.surface_found,
-                surface_memory = s.surface_memory,
-                tall_memory = s.tall_memory,
-                status = hd.status,
-                "map"
-            );
-            (spent_us, since_report) = (spent_us + u64::from(us), since_report + 1);
-            // sent only when it changes
-            let dropped = step.points_hop().dropped();
-            h.sd.status(&format!(
-                "{}; {dropped} revolutions dropped",
-                mapped.describe()
-            ));
         }
-        if last_report.elapsed() >= Duration::from_secs(10) && since_report > 0 {
-            let mean_processing_us = spent_us / since_report;
+        if last_report.elapsed() >= Duration::from_secs(10) && out.since_report > 0 {
+            let mean_processing_us = out.spent_us / out.since_report;
             let (maps, faults, hop) = (step.maps(), h.faults.summary(), step.points_hop());
             tracing::info!(
                 maps,
                 mean_processing_us,
                 dropped = hop.dropped(),
+                broken_slices = step.broken_slices(),
                 "mapping; {}: {}; faults: {faults}",
                 topics::LIDAR_POINTS,
                 hop.describe("revolutions")
             );
-            (spent_us, since_report, last_report) = (0, 0, Instant::now());
-            if let Some(line) = lat.take("revolution", "mapping", "map/plan sent") {
+            (out.spent_us, out.since_report, last_report) = (0, 0, Instant::now());
+            if let Some(line) = out.lat.take("revolution", "mapping", "map/plan sent") {
                 tracing::info!("{line}");
             }
         }
@@ -148,9 +152,89 @@ fn run(config: &Config) -> Result<()> {
     tracing::info!(
         maps = step.maps(),
         dropped = hop.dropped(),
+        broken_slices = step.broken_slices(),
         "mapper stopped; {}: {}",
         topics::LIDAR_POINTS,
         hop.describe("revolutions")
     );
     Ok(())
+}
+
+/// The map's topics and what is measured of the maps sent.
+struct Output {
+    plan_pub: ipc::PlanPublisher,
+    layers_pub: ipc::LayersPublisher,
+    len: usize,
+    /// Per hop (issue 27): the last packet to the mapping, the mapping, the last packet to
+    /// map/plan sent.
+    lat: HopLatency,
+    spent_us: u64,
+    since_report: u64,
+    /// Revolutions dropped by the last map sent.
+    dropped: u64,
+}
+
+impl Output {
+    /// Sends a map (the plan first: the planner waits for it) of the revolution whose last
+    /// packet arrived at `rx`, mapped from `started` (monotonic `now`).
+    fn send(
+        &mut self,
+        step: &MapStep,
+        mut mapped: Mapped,
+        rx: u64,
+        (started, now): (Instant, u64),
+        h: &mut Health,
+        at: Instant,
+    ) {
+        let lost = step.points_hop().dropped() - self.dropped;
+        self.dropped = step.points_hop().dropped();
+        let what = ("revolutions", topics::LIDAR_POINTS, "mapper");
+        record_drops(&mut h.faults, "dropped_revolutions", at, lost, what);
+        if mapped.header.status == map_status::ODOM_STALE {
+            h.faults.record("stale_odom", at, mapped.describe());
+        }
+        let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
+        mapped.header.processing_us = us;
+        let (classes, cost) = (step.mapper().classes(), step.mapper().cost());
+        let plan = (classes.iter().zip(cost)).map(|(&class, &cost)| PlanCell { class, cost });
+        if let Err(e) = self
+            .plan_pub
+            .publish_from_iter(mapped.header, classes.len(), plan)
+        {
+            h.faults.record("publish_failed", at, e);
+        }
+        let plan_sent = ipc::monotonic_ns();
+        let plan_sent_us = plan_sent.saturating_sub(rx) / 1000;
+        self.lat.push(rx, now, u64::from(us), plan_sent);
+        let layers = step.mapper().layers();
+        if let Err(e) = self
+            .layers_pub
+            .publish_from_iter(mapped.header, self.len, layers)
+        {
+            h.faults.record("publish_failed", at, e);
+        }
+        let (hd, s) = (&mapped.header, &mapped.stats);
+        tracing::debug!(
+            seq = hd.seq,
+            source_seq = hd.source_seq,
+            // from the revolution's last packet to here: the driver's publish and the wake-up
+            waited_us = now.saturating_sub(rx) / 1000,
+            processing_us = us,
+            plan_sent_us,
+            glass_detected = s.glass_detected,
+            glass_memory = s.glass_memory,
+            surface_found = s.surface_found,
+            surface_memory = s.surface_memory,
+            tall_memory = s.tall_memory,
+            status = hd.status,
+            "map"
+        );
+        (self.spent_us, self.since_report) = (self.spent_us + u64::from(us), self.since_report + 1);
+        // sent only when it changes
+        let dropped = step.points_hop().dropped();
+        h.sd.status(&format!(
+            "{}; {dropped} revolutions dropped",
+            mapped.describe()
+        ));
+    }
 }

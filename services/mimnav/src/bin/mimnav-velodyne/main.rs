@@ -18,7 +18,7 @@ use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
 use mimnav_velodyne::config::VelodyneInput;
 use mimnav_velodyne::driver::Driver;
-use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len};
+use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len, max_slice_points};
 use mimnav_velodyne::udp::UdpSource;
 
 /// The VLP-16 driver: decodes a live sensor (UDP) or replays a capture, and publishes
@@ -80,14 +80,23 @@ fn run(config: &Config) -> Result<()> {
         .publish_packets
         .then(|| ipc::packets_publisher(svc.node())))
     .transpose()?;
+    let slices = (v.slice_packets > 0)
+        .then(|| {
+            // the first slice after an early cut holds one packet more
+            let capacity = max_slice_points(v.slice_packets + 1);
+            ipc::slices_publisher(svc.node(), capacity).map(|p| (p, v.slice_packets))
+        })
+        .transpose()?;
     tracing::info!(
         rpm = v.rpm,
-        "topics open: {}, {}",
+        slice_packets = v.slice_packets,
+        "topics open: {}, {}, {}",
         topics::LIDAR_POINTS,
-        topics::LIDAR_SCAN2D
+        topics::LIDAR_SCAN2D,
+        topics::LIDAR_SLICES
     );
     let driver = Driver::new(asm, v.data_port, v.position_port);
-    let mut wired = Wired(driver, points, scan, packets);
+    let mut wired = Wired(driver, points, scan, packets, slices);
     let (mut health, interval) = (svc.health(), Duration::from_secs_f64(v.stats_interval_s));
     let VelodyneInput::Udp = v.input else {
         return wired::replay(config, &svc, &mut wired, &mut health, interval);

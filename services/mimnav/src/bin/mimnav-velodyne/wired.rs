@@ -6,19 +6,21 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use mimnav_config::Config;
 use mimnav_shared::config::seconds_ns;
-use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, ValuePublisher};
+use mimnav_shared::ipc::{self, PointsPublisher, ScanPublisher, SlicesPublisher, ValuePublisher};
 use mimnav_shared::service::{Health, Service};
 use mimnav_shared::topics::RawPacket;
 use mimnav_velodyne::driver::{Driver, Kind};
 use mimnav_velodyne::replay::{Next, Replay};
 
 /// The driver and the topics it publishes on (`lidar/scan2d` only when the foliage classifier
-/// reads the VLP-16: `foliage.source = "velodyne"`).
+/// reads the VLP-16: `foliage.source = "velodyne"`; `lidar/slices` of so many packets unless
+/// `velodyne.slice_packets` is 0).
 pub struct Wired(
     pub Driver,
     pub PointsPublisher,
     pub Option<ScanPublisher>,
     pub Option<ValuePublisher<RawPacket>>,
+    pub Option<(SlicesPublisher, u32)>,
 );
 
 impl Wired {
@@ -33,7 +35,7 @@ impl Wired {
         source: &dyn Fn() -> String,
     ) {
         let (now, mono) = (Instant::now(), ipc::monotonic_ns());
-        let Wired(driver, points, scan, packets) = self;
+        let Wired(driver, points, scan, packets, slices) = self;
         if let Some(raw) = packets
             .as_ref()
             .zip(driver.raw_packet(bytes, kind, (host_ns, mono)))
@@ -45,7 +47,17 @@ impl Wired {
             true => driver.finish(),
             false => driver.on_datagram(bytes, kind, (host_ns, mono), now, &mut h.faults, source),
         };
-        if let Some(rev) = rev {
+        let completed = rev.is_some();
+        // the slices first: the mapper maps the revolution from them before lidar/points
+        if let Some((slices, packets)) = slices {
+            driver.take_slices(*packets, |header, points| {
+                if let Err(e) = slices.publish(*header, points) {
+                    h.faults.record("publish_failed", now, e);
+                }
+            });
+        }
+        if completed {
+            let rev = driver.revolution();
             let sent = (points.publish(rev.header, &rev.points)).and(
                 scan.as_ref()
                     .map_or(Ok(0), |s| s.publish(rev.scan_header, &rev.scan)),
@@ -129,6 +141,9 @@ pub fn replay(
     h.sd.stopping(what);
     wired.0.log_summary(what, &h.faults);
     wired.1.end_of_stream()?;
+    if let Some((slices, _)) = &wired.4 {
+        slices.end_of_stream()?;
+    }
     if let Some(scan) = &wired.2 {
         scan.end_of_stream()?;
     }
