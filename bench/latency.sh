@@ -9,6 +9,8 @@
 # planner, planning, → cmd_vel; → the scan at the classifier, classifying, → foliage/alarm).
 #
 #   bench/latency.sh [ROBOT] [FAMILY…]      (default turtlebot2, every family)
+#   LATENCY_SET="velodyne.slice_packets=0" bench/latency.sh …   (config keys for every run)
+#   LATENCY_WORLDS="scenario1 scenario4"     (only these bundled scenarios, none: "-")
 #
 # A world the robot does not finish still measures: the demo's numbers cover every revolution
 # it drove.
@@ -24,7 +26,12 @@ families=("$@")
 if [ ${#families[@]} -eq 0 ]; then
   mapfile -t families < <("$mimnav" --config config/mimnav.toml worlds families | awk '{print $1}')
 fi
-worlds=(config/worlds/scenario1_glass_wall.toml config/worlds/scenario4_grass_intertwined.toml)
+sets=()
+for s in ${LATENCY_SET:-}; do sets+=(--set "$s"); done
+worlds=()
+for s in ${LATENCY_WORLDS:-scenario1 scenario4}; do
+  [ "$s" = - ] || worlds+=("$(ls config/worlds/"$s"_*.toml)")
+done
 for f in "${families[@]}"; do
   "$mimnav" --config config/mimnav.toml --set "robot.profile=\"$robot\"" worlds generate \
     --family "$f" --count 1 --split report --out "$out/$f" >/dev/null
@@ -33,7 +40,7 @@ done
 for w in "${worlds[@]}"; do
   echo "== $(basename "$w" .toml) ($robot)"
   # a demo that does not reach the goal exits 1: its figures still count
-  "$mimnav" --config config/mimnav.toml demo --world "$w" --robot "$robot" --log info \
+  "$mimnav" --config config/mimnav.toml "${sets[@]}" demo --world "$w" --robot "$robot" --log info \
     --out "$out/map.png" >"$out/demo" 2>"$out/err" || true
   grep -E "latency from|mapper's own" "$out/demo" || echo "(the demo printed no latency)"
   grep "latency per hop" "$out/err" | tail -3 | sed -E 's/^.*INFO (mimnav_[a-z]+): latency per hop: /  \1: /' || true

@@ -243,6 +243,8 @@ pub struct Mapper {
     rings: Vec<Vec<(RingReturn, u32, f32, f32)>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
+    /// Per ring: the returns whose window has been counted ([`LastReturn::flat`]).
+    last_counted: Vec<usize>,
     spikes: Vec<bool>,
     /// How the revolution being binned is de-skewed.
     deskew: Deskew,
@@ -261,6 +263,9 @@ struct LastReturn {
     z: f32,
     /// The cell it votes for, or [`NO_CELL`] (outside the grid, ground).
     cell: u32,
+    /// Enough of its neighbouring firings lie at its range (`surface_neighbours` within
+    /// `surface_window`): counted as soon as its window along the ring is complete.
+    flat: bool,
 }
 
 const NO_CELL: u32 = u32::MAX;
@@ -341,6 +346,7 @@ impl Mapper {
             last_pose: None,
             rings: vec![Vec::new(); 16],
             last_rings: vec![Vec::new(); 16],
+            last_counted: vec![0; 16],
             spikes: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
@@ -444,6 +450,10 @@ impl Mapper {
         self.bin(points, &mut stats);
         self.stats = stats;
         self.next_index = self.next_index.wrapping_add(points.len() as u32);
+        // the surface cue's windows already whole: counted now, not after the last packet
+        if self.params.mapper.surface_min_returns > 0 {
+            self.count_windows(false);
+        }
     }
 
     /// Ends the revolution begun by [`begin`](Self::begin): glass, classes, memories and cost
@@ -529,6 +539,7 @@ impl Mapper {
         for r in &mut self.last_rings {
             r.clear();
         }
+        self.last_counted.fill(0);
     }
 
     /// Bins every point into its cell's layers (equations 1–2), de-skewed by the odometry's
@@ -665,6 +676,7 @@ impl Mapper {
                     range: if p.z < ground_z { f32::NAN } else { d },
                     z: p.z,
                     cell: cell.map_or(NO_CELL, |i| i as u32),
+                    flat: false,
                 });
             }
             if p.z < ground_z {
@@ -990,19 +1002,39 @@ impl Mapper {
     /// as a surface return in its cell. Only the candidates (cells not bright, tall or opaque)
     /// are looked at.
     fn mark_surfaces(&mut self) {
-        let w = self.params.mapper.surface_window as usize;
-        let need = self.params.mapper.surface_neighbours as usize;
-        let tol = self.params.mapper.surface_tolerance_m as f32;
+        self.count_windows(true);
         for ring in &self.last_rings {
-            for (k, lr) in ring.iter().enumerate() {
-                if lr.cell == NO_CELL || !self.surface_candidate[lr.cell as usize] {
+            for lr in ring {
+                if !lr.flat || lr.cell == NO_CELL || !self.surface_candidate[lr.cell as usize] {
                     continue;
                 }
-                let i = lr.cell as usize;
-                let e = &mut self.evidence[i];
+                let e = &mut self.evidence[lr.cell as usize];
                 // below every beam that passed through the cell: a curtain lets beams through
                 // at every height, grass over a rock only above the rock
                 if e.passed > 0 && lr.z >= e.pass_low_z {
+                    continue;
+                }
+                e.surface = e.surface.saturating_add(1);
+            }
+        }
+    }
+
+    /// Counts the surface cue's window of every return along its ring whose window is whole:
+    /// all the ring's returns once the revolution is (`whole`), else those with `surface_window`
+    /// returns after them. A window holds the same returns then as at the revolution's end.
+    fn count_windows(&mut self, whole: bool) {
+        let w = self.params.mapper.surface_window as usize;
+        let need = self.params.mapper.surface_neighbours as usize;
+        let tol = self.params.mapper.surface_tolerance_m as f32;
+        for (ring, counted) in self.last_rings.iter_mut().zip(&mut self.last_counted) {
+            let end = if whole {
+                ring.len()
+            } else {
+                ring.len().saturating_sub(w)
+            };
+            for k in *counted..end {
+                let lr = ring[k];
+                if lr.cell == NO_CELL {
                     continue;
                 }
                 // the return itself is within the tolerance of itself: need + 1 in the window;
@@ -1015,10 +1047,9 @@ impl Mapper {
                         break;
                     }
                 }
-                if same > need {
-                    e.surface = e.surface.saturating_add(1);
-                }
+                ring[k].flat = same > need;
             }
+            *counted = (*counted).max(end);
         }
     }
 }
