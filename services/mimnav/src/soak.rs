@@ -106,6 +106,9 @@ struct Memory {
     shared_after_warm_up_kib: u64,
     shared_end_kib: u64,
     samples: usize,
+    /// CPU time (user and system) from the end of the warm-up to the end, as a share of one
+    /// core over that wall time, % (issue 27: the stack at the sensor's rate).
+    cpu_percent: f64,
 }
 
 impl Memory {
@@ -130,6 +133,8 @@ struct Sample {
     rss: u64,
     anon: u64,
     shmem: u64,
+    /// CPU time used so far, s.
+    cpu_s: f64,
 }
 
 /// What the soak measured: every revolution the simulator completed, accounted for hop by hop.
@@ -175,19 +180,32 @@ impl Report {
     }
 }
 
-/// `VmRSS`, `RssAnon` and `RssShmem` of process `pid` at `t`, KiB.
+/// `VmRSS`, `RssAnon` and `RssShmem` of process `pid` at `t`, KiB, and its CPU time.
 fn memory_of(pid: u32, t: f64) -> Option<Sample> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     let field = |name: &str| -> Option<u64> {
         let line = status.lines().find(|l| l.starts_with(name))?;
         line.split_whitespace().nth(1)?.parse().ok()
     };
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     Some(Sample {
         t,
         rss: field("VmRSS:")?,
         anon: field("RssAnon:")?,
         shmem: field("RssShmem:")?,
+        cpu_s: cpu_seconds(&stat)?,
     })
+}
+
+/// User and system CPU time of a `/proc/PID/stat` line, s: fields 14 and 15, counted after the
+/// command name's closing parenthesis (the name may hold spaces).
+fn cpu_seconds(stat: &str) -> Option<f64> {
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let mut fields = rest.split_whitespace().skip(11);
+    let (utime, stime): (u64, u64) = (fields.next()?.parse().ok()?, fields.next()?.parse().ok()?);
+    // SAFETY: sysconf reads a constant of the system and has no precondition
+    let ticks = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    (ticks > 0).then(|| (utime + stime) as f64 / ticks as f64)
 }
 
 /// The kernel's drops on the UDP sockets bound to `port`.
@@ -402,6 +420,7 @@ fn memory(rss: &BTreeMap<String, Vec<Sample>>) -> Vec<Memory> {
                 shared_after_warm_up_kib: warm.shmem,
                 shared_end_kib: end.shmem,
                 samples: samples.len(),
+                cpu_percent: 100.0 * (end.cpu_s - warm.cpu_s) / (end.t - warm.t).max(1e-9),
             })
         })
         .collect()
@@ -447,8 +466,9 @@ fn print(r: &Report) {
     let mb = |kib: u64| kib as f64 / 1024.0;
     for m in &r.memory {
         let _ = outln!(
-            "  {:16} RSS {:5.1} MB after the warm-up, {:5.1} at half time, {:5.1} at the end ({:+.1}), {:5.1} at most; heap {:5.1} → {:5.1} MB ({:+.1}), shared memory {:5.1} → {:5.1} MB ({} samples){}",
+            "  {:16} CPU {:5.2} % of a core; RSS {:5.1} MB after the warm-up, {:5.1} at half time, {:5.1} at the end ({:+.1}), {:5.1} at most; heap {:5.1} → {:5.1} MB ({:+.1}), shared memory {:5.1} → {:5.1} MB ({} samples){}",
             m.service,
+            m.cpu_percent,
             mb(m.after_warm_up_kib),
             mb(m.half_kib),
             mb(m.end_kib),
@@ -463,6 +483,14 @@ fn print(r: &Report) {
             if m.flat() { "" } else { "  GREW" }
         );
     }
+    let stack: f64 = (r.memory.iter())
+        .filter(|m| m.service != "mimnav-sim")
+        .map(|m| m.cpu_percent)
+        .sum();
+    let _ = outln!(
+        "  the stack without the simulator: CPU {stack:.2} % of a core ({:.1}× real time)",
+        r.sensor_s / r.wall_s.max(1e-9)
+    );
     let _ = outln!(
         "{}",
         match r.ok() {
@@ -470,4 +498,22 @@ fn print(r: &Report) {
             false => "soak FAILED: see the lost revolutions or the memory above",
         }
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu_seconds;
+
+    #[test]
+    fn cpu_time_is_read_after_a_command_name_with_spaces_and_parentheses() {
+        // SAFETY: as in cpu_seconds
+        let ticks = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+        let line = "4242 (mimnav (x) y) S 1 4242 4242 0 -1 4194560 900 0 0 0 250 50 0 0 20 0 3 0";
+        let s = cpu_seconds(line).expect("parsed");
+        assert!((s - 300.0 / ticks).abs() < 1e-9, "{s}");
+        assert_eq!(cpu_seconds("4242 (cut"), None);
+        // the kernel's own line for this process reads
+        let own = std::fs::read_to_string("/proc/self/stat").expect("/proc/self/stat");
+        assert!(cpu_seconds(&own).is_some_and(|s| s >= 0.0));
+    }
 }
