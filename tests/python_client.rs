@@ -45,6 +45,8 @@ RUST = {ctypes.c_uint8: "u8", ctypes.c_uint16: "u16", ctypes.c_uint32: "u32",
 def rust(t):
     if issubclass(t, ctypes.Array):
         return f"[{rust(t._type_)}; {t._length_}]"
+    if issubclass(t, mc._Named):
+        return t.__name__
     return RUST.get(t, "?" + t.__name__)
 
 def name(t):
@@ -60,7 +62,7 @@ for cls in mc._Named.__subclasses__():
 for t in mc.TOPICS.values():
     payload = f"[{name(t.payload)}]" if t.is_slice else name(t.payload)
     header = name(t.header) if t.header is not None else "—"
-    kind = "slice" if t.is_slice else "value"
+    kind = t.kind
     print("topic", t.name, payload, header, kind, t.buffer, t.borrowed)
 print("limits", mc.MAX_PUBLISHERS, mc.MAX_SUBSCRIBERS, mc.MAX_NODES)
 print("events", mc.EVENT_NEW_DATA, mc.EVENT_END_OF_STREAM)

@@ -44,6 +44,7 @@ __all__ = [
     "EVENT_END_OF_STREAM",
     "Point",
     "PointsHeader",
+    "SliceHeader",
     "ScanReturn",
     "ScanHeader",
     "RawPacket",
@@ -59,6 +60,7 @@ __all__ = [
     "Topic",
     "TOPICS",
     "LIDAR_POINTS",
+    "LIDAR_SLICES",
     "LIDAR_SCAN2D",
     "LIDAR_PACKETS",
     "CMD_VEL",
@@ -95,6 +97,8 @@ MAX_PUBLISHERS = 2
 MAX_SUBSCRIBERS = 6
 MAX_NODES = 12
 SLICE_BUFFER = 2
+#: ``lidar/slices`` (QoS ``slices``): more than a revolution's slices.
+SLICES_BUFFER = 64
 SMALL_BUFFER = 64
 SLICE_BORROWED = 1
 SMALL_BORROWED = 2
@@ -172,6 +176,20 @@ class PointsHeader(_Named):
         ("product", u8),
         ("cut_reason", u8),
         ("reserved", u8),
+    ]
+
+
+class SliceHeader(_Named):
+    """User header of a ``lidar/slices`` sample: the next whole packets of a revolution."""
+
+    TYPE_NAME = "mimnav/SliceHeader/v1"
+    LAYOUT = (72, 8)
+    _fields_ = [
+        ("revolution", PointsHeader),
+        ("index", u32),
+        ("first_point", u32),
+        ("last", u8),
+        ("reserved", u8 * 7),
     ]
 
 
@@ -402,9 +420,17 @@ class Topic:
     header: Optional[type]
     #: True: the payload is a slice ``[payload]`` whose length varies per sample.
     is_slice: bool
+    #: The QoS row of docs/topics.md: ``slice``, ``value``, or ``slices`` (``lidar/slices``).
+    qos: str = ""
+
+    @property
+    def kind(self) -> str:
+        return self.qos or ("slice" if self.is_slice else "value")
 
     @property
     def buffer(self) -> int:
+        if self.kind == "slices":
+            return SLICES_BUFFER
         return SLICE_BUFFER if self.is_slice else SMALL_BUFFER
 
     @property
@@ -417,6 +443,7 @@ class Topic:
 
 
 LIDAR_POINTS = Topic("mimnav/lidar/points", Point, PointsHeader, True)
+LIDAR_SLICES = Topic("mimnav/lidar/slices", Point, SliceHeader, True, "slices")
 LIDAR_SCAN2D = Topic("mimnav/lidar/scan2d", ScanReturn, ScanHeader, True)
 LIDAR_PACKETS = Topic("mimnav/lidar/packets", RawPacket, None, False)
 CMD_VEL = Topic("mimnav/cmd_vel", VelocityCommand, None, False)
@@ -433,6 +460,7 @@ TOPICS = {
     t.name: t
     for t in (
         LIDAR_POINTS,
+        LIDAR_SLICES,
         LIDAR_SCAN2D,
         LIDAR_PACKETS,
         CMD_VEL,
@@ -452,6 +480,7 @@ def check_layouts() -> None:
     for t in (
         Point,
         PointsHeader,
+        SliceHeader,
         ScanReturn,
         ScanHeader,
         RawPacket,
