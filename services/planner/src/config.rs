@@ -89,8 +89,9 @@ pub struct PlannerConfig {
     /// Distance from the body (its enclosing circle) to the nearest glass cell ahead at which
     /// the speed limit near glass ends, m (0: no limit).
     pub glass_slow_within_m: f64,
-    /// A free end of a wall or pane ahead (the mouth of a corridor, a door's jamb: a pane may
-    /// go on from it unseen) limits the speed as glass does.
+    /// A solid wall's free end ahead (the mouth of a corridor, a door's jamb in a wall: a pane
+    /// may go on from it unseen) limits the speed as glass does. Off: on the tune worlds it
+    /// took Spot's corridor contacts away but lowered a family for each robot (docs/glass.md).
     pub glass_slow_ends: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
