@@ -551,6 +551,7 @@ pub fn shortest_m(config: &Config, scene: &Scene) -> Option<f64> {
             swing_m: 0.0,
             swing_weight: 0.0,
             suspect_weight: 0.0,
+            end_m: 0.0,
             settle_within_m: 0.0,
         },
         grid,

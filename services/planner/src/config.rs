@@ -64,6 +64,13 @@ pub struct PlannerConfig {
     /// route, too, keeps off walls and glass where there is room (charged at
     /// `route_swing_weight`). 0: only a long body's room to turn.
     pub route_berth_m: f64,
+    /// A long body keeps this far from a solid's or a pane's free end — a wall or pane ending
+    /// in open floor, the mouth of a corridor, the jamb of a door — where there is room: a
+    /// metre of route nearer costs up to `route_swing_weight` metres more, in proportion to the
+    /// shortfall, m (0: no preference; a round robot has none). A pane may go on from that end
+    /// unseen, and a long body turning round the end swings its nose across the pane's line
+    /// before its sensor has faced any of it.
+    pub route_end_m: f64,
     /// Suspected glass — a pane's line drawn on where the pane was not seen, which may be an
     /// opening never faced — does not close the route: a metre of route where the footprint
     /// would touch it costs this many metres more, so the route leads there only when no
@@ -82,6 +89,10 @@ pub struct PlannerConfig {
     /// Distance from the body (its enclosing circle) to the nearest glass cell ahead at which
     /// the speed limit near glass ends, m (0: no limit).
     pub glass_slow_within_m: f64,
+    /// A solid wall's free end ahead (the mouth of a corridor, a door's jamb in a wall: a pane
+    /// may go on from it unseen) limits the speed as glass does. Off: on the tune worlds it
+    /// took Spot's corridor contacts away but lowered a family for each robot (docs/glass.md).
+    pub glass_slow_ends: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
     /// (0: never).
@@ -134,11 +145,13 @@ impl Default for PlannerConfig {
             route_cost_weight: 1.0,
             route_swing_weight: 4.0,
             route_berth_m: 0.0,
+            route_end_m: 0.0,
             route_suspect_weight: 10.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
+            glass_slow_ends: false,
             recovery_after_s: 1.5,
             recovery_s: 2.0,
             recovery_mps: 0.15,
@@ -204,6 +217,7 @@ impl PlannerConfig {
             100.0,
         );
         r.check("planner.route_berth_m", self.route_berth_m, 0.0, 2.0);
+        r.check("planner.route_end_m", self.route_end_m, 0.0, 3.0);
         r.check(
             "planner.route_suspect_weight",
             self.route_suspect_weight,

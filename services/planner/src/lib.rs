@@ -212,6 +212,7 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
         return f64::INFINITY;
     }
     let body = p.robot.body();
+    let ends = p.planner.glass_slow_ends;
     let reach = (body.enclosing_radius_m() + within) as f32 + grid.cell_m;
     let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(0.0, -reach), grid.cell_of(reach, reach))
     else {
@@ -229,7 +230,11 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
                 continue;
             }
             let d = body.signed_distance(f64::from(x), f64::from(y));
-            if d < nearest && (cell_class::is_glass(class) || is_post(classes, grid, r, c)) {
+            if d < nearest
+                && (cell_class::is_glass(class)
+                    || is_post(classes, grid, r, c)
+                    || ends && class == cell_class::SOLID && is_end(classes, grid, r, c))
+            {
                 nearest = d;
             }
         }
@@ -268,6 +273,62 @@ fn is_post(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
                 return false;
             }
         }
+    }
+    true
+}
+
+/// How far from a cell [`is_end`] looks for the rest of its wall, m: the near ring beyond a
+/// wall's thickness, the far one where a wall (not a post or a pair of posts) still runs on.
+const END_RINGS_M: [f32; 2] = [0.3, 0.6];
+
+/// True when the solid cell (r, c) is at a free end of a wall standing on open floor — the
+/// mouth of a corridor, the jamb of a door in a wall: on each square ring [`END_RINGS_M`]
+/// around it the solid cells all lie to one side (the unit vectors towards them sum to at least
+/// 0.9 of their count: a wall's middle and a corner are none), the same side on both rings,
+/// with at least one on each (a post or a pair of posts is none; [`is_post`] takes a lone
+/// post), nothing on the near ring is passable (a bush at a hedge's gap, a trunk in grass) and
+/// the rings lie within the map. Glass is not counted: a pane's end beside a door has no wall
+/// to go on from, and slowing there kept Spot from framed doors it passed through before. A
+/// pane may go on from a wall's end unseen: a long body turning round the end swings its nose
+/// across the pane's line before its sensor, at its centre, has faced any of it.
+fn is_end(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
+    let n = grid.cells as isize;
+    let (r, c) = (r as isize, c as isize);
+    let mut towards: Option<(f32, f32)> = None;
+    for (ring, radius) in END_RINGS_M.into_iter().enumerate() {
+        let k = (radius / grid.cell_m).ceil() as isize;
+        if r < k || c < k || r + k >= n || c + k >= n {
+            return false;
+        }
+        let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
+        for dr in -k..=k {
+            for dc in -k..=k {
+                if dr.abs().max(dc.abs()) != k {
+                    continue;
+                }
+                let class = classes[grid.index((r + dr) as usize, (c + dc) as usize)];
+                if ring == 0 && class == cell_class::PASSABLE {
+                    return false;
+                }
+                if class == cell_class::SOLID {
+                    let len = ((dr * dr + dc * dc) as f32).sqrt();
+                    sx += dr as f32 / len;
+                    sy += dc as f32 / len;
+                    count += 1;
+                }
+            }
+        }
+        let len = sx.hypot(sy);
+        if count == 0 || len < 0.9 * count as f32 {
+            return false;
+        }
+        let dir = (sx / len, sy / len);
+        if let Some((ux, uy)) = towards
+            && ux * dir.0 + uy * dir.1 < 0.9
+        {
+            return false;
+        }
+        towards = Some(dir);
     }
     true
 }
@@ -492,5 +553,83 @@ mod tests {
             ),
             "drives into the pane"
         );
+    }
+
+    /// Issue 22: Spot turning into a glass corridor's mouth touched a pane that went on, unseen,
+    /// from the end of the wall beside the mouth. With `glass_slow_ends` a wall's free end ahead
+    /// limits the speed as glass does; the wall's middle and a corner do not, nor an end behind.
+    #[test]
+    fn a_walls_free_end_ahead_slows_like_glass_when_asked() {
+        let mut p = PlannerParams::default();
+        p.planner.glass_slow_ends = true;
+        // a wall along y = 0.5 m ending 0.6 m ahead of the robot, running on to the left edge
+        let (grid, ending) = crate::clearance::tests::map(|x, y| {
+            if x < 0.6 && x > -4.0 && (y - 0.5).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let cap = glass_speed_cap(&p, &ending, grid);
+        assert!(cap < 0.4, "{cap}");
+        let mut off = p.clone();
+        off.planner.glass_slow_ends = false;
+        assert_eq!(glass_speed_cap(&off, &ending, grid), f64::INFINITY);
+        // the same wall running on past the robot: no end near
+        let (grid, through) = crate::clearance::tests::map(|x, y| {
+            if x > -4.0 && x < 4.0 && (y - 0.5).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(glass_speed_cap(&p, &through, grid), f64::INFINITY);
+        // a corner ahead: the wall turns away from the robot at x = 0.6 m
+        let (grid, corner) = crate::clearance::tests::map(|x, y| {
+            let along = x < 0.65 && x > -4.0 && (y - 0.5).abs() < 0.05;
+            let up = (x - 0.6).abs() < 0.05 && y > 0.45 && y < 4.0;
+            if along || up {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(glass_speed_cap(&p, &corner, grid), f64::INFINITY);
+        // a pair of posts ahead (a framed door's jamb), and a pane ending there: no wall's end
+        let (grid, pair) = crate::clearance::tests::map(|x, y| {
+            let post = |cx: f32| (x - cx).abs() < 0.06 && (y - 0.5).abs() < 0.06;
+            if post(0.6) || post(0.75) {
+                cell_class::SOLID
+            } else if x < 0.55 && x > -4.0 && (y - 0.5).abs() < 0.03 {
+                cell_class::GLASS
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(
+            glass_speed_cap(&p, &pair, grid),
+            glass_speed_cap(&off, &pair, grid),
+            "slowed by the pane only"
+        );
+        let pair: Vec<u8> = pair
+            .iter()
+            .map(|&c| match c {
+                cell_class::GLASS => cell_class::FREE,
+                c => c,
+            })
+            .collect();
+        assert_eq!(
+            glass_speed_cap(&p, &pair, grid),
+            glass_speed_cap(&off, &pair, grid)
+        );
+        // the end behind the robot
+        let (grid, behind) = crate::clearance::tests::map(|x, y| {
+            if x < -0.6 && x > -4.0 && (y - 0.5).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert_eq!(glass_speed_cap(&p, &behind, grid), f64::INFINITY);
     }
 }

@@ -246,6 +246,7 @@ mod tests {
                 swing_m: 0.0,
                 swing_weight: 0.0,
                 suspect_weight: 10.0,
+                end_m: 0.0,
                 settle_within_m: 0.0,
             },
             grid(),

@@ -47,6 +47,19 @@ impl PlannerParams {
             .max(0.0)
     }
 
+    /// How far a long body's route keeps from a free end of a wall or pane where there is room
+    /// (`planner.route_end_m`; 0 for a round robot), m. A round body's sensor at its centre
+    /// faces a pane squarely at the very point where the body would first touch it (the foot of
+    /// the perpendicular); a rectangle's corner reaches a pane's line ahead of that point, so
+    /// past a wall's end, where a pane may go on unseen, a long body can touch glass it never
+    /// faced.
+    pub fn end_m(&self) -> f64 {
+        match self.robot.body() {
+            mimnav_shared::config::Body::Rectangle { .. } => self.planner.route_end_m,
+            _ => 0.0,
+        }
+    }
+
     /// The discs the dynamic window checks along every rollout: a cover of the body (one disc
     /// of `radius_m` for a round robot; for a rectangle, discs along the heading reaching at
     /// most [`BODY_COVER_SIDE_M`] beyond its long sides), each to be kept `planner.margin_m`
@@ -72,6 +85,7 @@ impl PlannerParams {
             swing_m: self.swing_m() as f32,
             swing_weight: p.route_swing_weight as f32,
             suspect_weight: p.route_suspect_weight as f32,
+            end_m: self.end_m() as f32,
             settle_within_m,
         }
     }

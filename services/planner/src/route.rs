@@ -62,6 +62,8 @@ pub struct Route {
     soft: Vec<f32>,
     /// The extra cost per metre of each coarse cell for lacking room to turn.
     swing: Vec<f32>,
+    /// Coarse distance from free ends of walls and panes, m (`end_m`).
+    ends: Vec<f32>,
     /// `open` with a closed border two cells wide.
     padded: Vec<bool>,
     /// Route length to the goal from each coarse cell's centre, m (infinite: no route).
@@ -88,6 +90,7 @@ impl Default for Route {
             clear: Vec::new(),
             soft: Vec::new(),
             swing: Vec::new(),
+            ends: Vec::new(),
             padded: Vec::new(),
             dist: Vec::new(),
             heap: BinaryHeap::new(),
@@ -122,6 +125,12 @@ pub struct RouteParams {
     /// faces it: a beam meets it squarely and it turns into glass or an opening. 0: suspected
     /// glass closes the route like glass.
     pub suspect_weight: f32,
+    /// A long body's route keeps this far from a free end of a wall or pane — an obstacle
+    /// whose coarse neighbours [`END_RING`] cells away all lie to one side of it (a lone post,
+    /// with none, is not one) — where there is room: a cell nearer costs up to `swing_weight`
+    /// more per metre, in proportion to the shortfall, m (0: no preference). See
+    /// [`crate::PlannerParams::end_m`].
+    pub end_m: f32,
     /// The search stops once every open cell within this distance of the robot (the map's
     /// centre) has its final length — all the dynamic window's rollouts can ask for (their reach
     /// plus two coarse cells for the interpolation). Cells beyond may keep longer, provisional
@@ -213,6 +222,8 @@ impl Route {
         }
         self.row_obstacle = any_obstacle;
         self.row_cost = cheapest;
+        let mut ends = std::mem::take(&mut self.ends);
+        let any_end = p.end_m > 0.0 && free_ends(&soft, cells, self.coarse.cell_m, &mut ends);
         chamfer(&mut obstacle, cells, self.coarse.cell_m);
         if suspects && any_suspected {
             chamfer(&mut soft, cells, self.coarse.cell_m);
@@ -232,25 +243,36 @@ impl Route {
         // is three cells wide and no knight's move jumps it
         let touch = p.radius_m + 0.5 * self.coarse.cell_m;
         self.swing.clear();
-        self.swing
-            .extend(soft.iter().zip(&obstacle).map(|(&d, &solid_d)| {
-                let swing = match p.swing_m > 0.0 {
-                    true => {
-                        p.swing_weight * ((p.radius_m + p.swing_m - d) / p.swing_m).clamp(0.0, 1.0)
+        self.swing.extend(
+            soft.iter()
+                .zip(&obstacle)
+                .enumerate()
+                .map(|(k, (&d, &solid_d))| {
+                    let mut swing = match p.swing_m > 0.0 {
+                        true => {
+                            p.swing_weight
+                                * ((p.radius_m + p.swing_m - d) / p.swing_m).clamp(0.0, 1.0)
+                        }
+                        false => 0.0,
+                    };
+                    // nearer suspected glass than anything solid or seen, within touching
+                    let suspected_near = d < touch && d < solid_d;
+                    if any_end {
+                        let e = ends[k];
+                        swing =
+                            swing.max(p.swing_weight * ((p.end_m - e) / p.end_m).clamp(0.0, 1.0));
                     }
-                    false => 0.0,
-                };
-                // nearer suspected glass than anything solid or seen, within touching
-                let suspected_near = d < touch && d < solid_d;
-                swing
-                    + if suspected_near {
-                        p.suspect_weight
-                    } else {
-                        0.0
-                    }
-            }));
+                    swing
+                        + if suspected_near {
+                            p.suspect_weight
+                        } else {
+                            0.0
+                        }
+                }),
+        );
         self.clear = obstacle;
         self.soft = soft;
+        self.ends = ends;
         let scale = p.cost_weight / 255.0;
         // the goal's own cell, or the border when the goal lies outside the map
         let cs = self.coarse;
@@ -416,6 +438,59 @@ impl Route {
     }
 }
 
+/// How far from an end cell [`free_ends`] looks for the rest of its wall or pane, coarse cells
+/// (0.5 m at the default 0.25 m cells): nearer, a wall's own thickness and a corner's two legs
+/// blur together.
+pub const END_RING: usize = 2;
+
+/// Marks the free ends of walls and panes on the coarse grid: `obstacle` holds 0 at coarse
+/// obstacle cells (solid, glass or suspected glass: a pane's line drawn on ends where the
+/// drawing does). An obstacle cell is an end when the obstacle cells on the ring of cells
+/// [`END_RING`] away (Chebyshev) all lie to one side of it — the unit vectors towards them sum
+/// to at least 0.9 of their count (a wall's end, one to three cells thick: 0.93–1): a wall's
+/// middle (two opposite sides) or a corner (two legs at a right angle: 0.71, 0.83 with legs two
+/// cells thick) is none, a lone post (no neighbour) is none, and a cell whose ring
+/// leaves the map is none (a wall cut by the map's border does not end there). `ends` gets 0 at
+/// the ends and the distance to the nearest one elsewhere (m, capped at the map's side);
+/// false when there is none.
+fn free_ends(obstacle: &[f32], n: usize, cell_m: f32, ends: &mut Vec<f32>) -> bool {
+    let far = cell_m * n as f32;
+    ends.clear();
+    ends.resize(n * n, far);
+    let k = END_RING as isize;
+    let mut any = false;
+    for r in END_RING..n.saturating_sub(END_RING) {
+        for c in END_RING..n - END_RING {
+            if obstacle[r * n + c] != 0.0 {
+                continue;
+            }
+            let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
+            for dr in -k..=k {
+                for dc in -k..=k {
+                    if dr.abs().max(dc.abs()) != k {
+                        continue;
+                    }
+                    let i = (r as isize + dr) as usize * n + (c as isize + dc) as usize;
+                    if obstacle[i] == 0.0 {
+                        let len = ((dr * dr + dc * dc) as f32).sqrt();
+                        sx += dr as f32 / len;
+                        sy += dc as f32 / len;
+                        count += 1;
+                    }
+                }
+            }
+            if count > 0 && sx.hypot(sy) >= 0.9 * count as f32 {
+                ends[r * n + c] = 0.0;
+                any = true;
+            }
+        }
+    }
+    if any {
+        chamfer(ends, n, cell_m);
+    }
+    any
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -438,6 +513,7 @@ mod tests {
                 swing_m: 0.0,
                 swing_weight: 0.0,
                 suspect_weight: 0.0,
+                end_m: 0.0,
                 settle_within_m: within,
             },
             grid,
@@ -470,6 +546,7 @@ mod tests {
                     swing_m: 0.35,
                     swing_weight,
                     suspect_weight: 0.0,
+                    end_m: 0.0,
                     settle_within_m: 0.0,
                 },
                 grid(),
@@ -518,6 +595,7 @@ mod tests {
                     swing_m: 0.0,
                     swing_weight: 0.0,
                     suspect_weight,
+                    end_m: 0.0,
                     settle_within_m: 0.0,
                 },
                 grid(),
@@ -730,6 +808,7 @@ mod tests {
                 swing_m: 0.0,
                 swing_weight: 0.0,
                 suspect_weight: 0.0,
+                end_m: 0.0,
                 settle_within_m: 1.0,
             },
             grid(),
@@ -738,5 +817,104 @@ mod tests {
             (1.0, 0.0),
         );
         assert!(route.value(0.0, 0.0).is_infinite());
+    }
+
+    /// Issue 22: Spot turning into a corridor's mouth swung its nose across a pane that went on
+    /// from the wall's end, unseen (its sensor had not yet passed the end, so no beam had met
+    /// the pane squarely). With `end_m` the route keeps a long body off a wall's free end where
+    /// there is room; a wall's middle, a corner and a lone post are no ends.
+    #[test]
+    fn a_long_bodys_route_keeps_off_a_walls_free_end() {
+        let g = grid();
+        let coarse = |c: &[u8]| {
+            let mut r = Route::default();
+            r.build(
+                &RouteParams {
+                    cell_m: 0.25,
+                    radius_m: 0.35,
+                    cost_weight: 0.0,
+                    swing_m: 0.35,
+                    swing_weight: 4.0,
+                    suspect_weight: 0.0,
+                    end_m: 1.0,
+                    settle_within_m: 0.0,
+                },
+                g,
+                c,
+                &vec![0; c.len()],
+                (4.0, 4.0),
+            );
+            r
+        };
+        // the ends the route found, as robot-frame points
+        let ends_of = |r: &Route| -> Vec<(f32, f32)> {
+            let n = r.coarse.cells;
+            (0..n * n)
+                .filter(|&k| r.ends[k] == 0.0)
+                .map(|k| r.coarse.center_of(k / n, k % n))
+                .collect()
+        };
+        // a wall along x = 1 m from y = 0.75 m up past the map's edge: its one free end is at
+        // (1, 0.75); the map's border cuts it without ending it
+        let wall = classes(|x, y| match (x - 1.0).abs() < 0.05 && y > 0.75 {
+            true => cell_class::SOLID,
+            false => cell_class::FREE,
+        });
+        let r = coarse(&wall);
+        let ends = ends_of(&r);
+        assert!(!ends.is_empty());
+        for (x, y) in &ends {
+            assert!((x - 1.0).abs() < 0.3 && (y - 0.75).abs() < 0.45, "{x} {y}");
+        }
+        // beside the end costs more than as far again from the wall's middle
+        let plain = |c: &[u8]| {
+            let mut r = Route::default();
+            r.build(
+                &RouteParams {
+                    cell_m: 0.25,
+                    radius_m: 0.35,
+                    cost_weight: 0.0,
+                    swing_m: 0.35,
+                    swing_weight: 4.0,
+                    suspect_weight: 0.0,
+                    end_m: 0.0,
+                    settle_within_m: 0.0,
+                },
+                g,
+                c,
+                &vec![0; c.len()],
+                (4.0, 4.0),
+            );
+            r
+        };
+        let without = plain(&wall);
+        let (a, b) = (without.value(0.5, 0.3), r.value(0.5, 0.3));
+        assert!(b > a + 0.3, "dearer by the end: {a} {b}");
+        assert!(without.value(-3.0, -3.0).is_finite() && r.value(-3.0, -3.0).is_finite());
+        // a wall's middle (across the map), a corner, a lone post: no ends
+        let across = classes(|x, _| match (x - 1.0).abs() < 0.05 {
+            true => cell_class::SOLID,
+            false => cell_class::FREE,
+        });
+        assert!(ends_of(&coarse(&across)).is_empty());
+        let corner = classes(|x, y| {
+            let leg = |a: f32, b: f32| (a - 1.0).abs() < 0.05 && b > 0.95;
+            match leg(x, y) || leg(y, x) {
+                true => cell_class::SOLID,
+                false => cell_class::FREE,
+            }
+        });
+        assert!(
+            ends_of(&coarse(&corner)).is_empty(),
+            "{:?}",
+            ends_of(&coarse(&corner))
+        );
+        let post = classes(
+            |x, y| match (x - 1.0).abs() < 0.06 && (y - 1.0).abs() < 0.06 {
+                true => cell_class::SOLID,
+                false => cell_class::FREE,
+            },
+        );
+        assert!(ends_of(&coarse(&post)).is_empty());
     }
 }
