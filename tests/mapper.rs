@@ -3,7 +3,7 @@ use std::time::{Duration, Instant};
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
-use mimnav_shared::topics::{cell_class, map_status};
+use mimnav_shared::topics::{Point, cell_class, map_status};
 
 use crate::util::{Proc, bin, config_args, free_udp_port, reference_counts, root, velodyne_data};
 
@@ -17,6 +17,10 @@ fn the_mapper_maps_every_revolution_of_the_real_capture() {
     let args = config_args(&domain);
     let node = ipc::node(&domain.config(), "e2e-map-tap").expect("node");
     let plan = ipc::plan_subscriber(&node).expect("plan");
+    let (slices, points) = (
+        ipc::slices_subscriber(&node).expect("slices"),
+        ipc::points_subscriber(&node).expect("points"),
+    );
     let mut mapper = Proc::start(
         Command::new(bin("mimnav-mapper"))
             .args(&args)
@@ -31,13 +35,28 @@ fn the_mapper_maps_every_revolution_of_the_real_capture() {
             .arg(data.join("vlp16_dual_nebula.pcap"))
             .args(["--set", "velodyne.replay_linger_s=3"]),
     );
-    let mut maps = Vec::new();
+    let (mut maps, mut whole, mut sliced) = (Vec::new(), Vec::new(), Vec::new());
+    let mut building: Vec<Point> = Vec::new();
     let until = Instant::now() + Duration::from_secs(20);
-    while maps.len() < revolutions && Instant::now() < until {
-        plan.heard_within(Duration::from_millis(50));
+    // the mapper maps a revolution from its last slice before the driver sends it whole: the
+    // whole one may still be on its way when the last map is in
+    while (maps.len() < revolutions || whole.len() < revolutions) && Instant::now() < until {
+        plan.heard_within(Duration::from_millis(20));
         while let Some(s) = plan.receive().expect("receive") {
             let classes: Vec<u8> = s.payload().iter().map(|c| c.class).collect();
             maps.push((*s.user_header(), classes));
+        }
+        // the slices put together, revolution by revolution, and the revolutions whole
+        while let Some(s) = slices.receive().expect("receive") {
+            let h = *s.user_header();
+            assert_eq!(h.first_point as usize, building.len(), "slice {h:?}");
+            building.extend_from_slice(s.payload());
+            if h.last != 0 {
+                sliced.push((h.revolution, std::mem::take(&mut building)));
+            }
+        }
+        while let Some(s) = points.receive().expect("receive") {
+            whole.push((*s.user_header(), s.payload().to_vec()));
         }
     }
     let _ = driver.terminate(Duration::from_secs(1));
@@ -46,6 +65,13 @@ fn the_mapper_maps_every_revolution_of_the_real_capture() {
         .expect("the mapper stops within 1 s of SIGTERM");
     assert!(status.success(), "{status}");
     assert_eq!(maps.len(), revolutions, "one map per revolution");
+    // issue 27: the driver handed each revolution out in slices as it arrived, and the mapper
+    // mapped every one from them
+    assert_eq!(sliced.len(), whole.len(), "every revolution in slices");
+    for ((hs, ps), (hw, pw)) in sliced.iter().zip(&whole) {
+        assert_eq!(hs, hw, "the last slice carries the revolution's header");
+        assert!(ps == pw, "revolution {}: its slices put together", hw.seq);
+    }
     for (k, (h, classes)) in maps.iter().enumerate() {
         assert_eq!(h.source_seq, k as u64, "each map names its revolution");
         assert_ne!(
@@ -72,6 +98,15 @@ fn the_mapper_maps_every_revolution_of_the_real_capture() {
     assert!(
         !err.contains("receive_failed") && !err.contains("publish_failed"),
         "{err}"
+    );
+    let stopped = err
+        .lines()
+        .find(|l| l.contains("mapper stopped"))
+        .unwrap_or_else(|| panic!("the closing line: {err}"));
+    assert!(
+        stopped.contains(&format!("from_slices={revolutions}"))
+            && stopped.contains("broken_slices=0"),
+        "every map from its slices: {stopped}"
     );
 }
 

@@ -59,6 +59,7 @@ pub struct MapStep {
     /// The last revolution whose slices broke off (counted once each).
     broken_seq: Option<u64>,
     broken: u64,
+    from_slices: u64,
 }
 
 /// A revolution being binned from its slices: what the next slice must be.
@@ -86,6 +87,7 @@ impl MapStep {
             sliced_seq: None,
             broken_seq: None,
             broken: 0,
+            from_slices: 0,
         }
     }
 
@@ -182,7 +184,13 @@ impl MapStep {
             return None;
         }
         self.sliced_seq = Some(seq);
+        self.from_slices += 1;
         Some(self.finish(&h.revolution, b.last_offset_ns, now))
+    }
+
+    /// Maps made from their slices (the rest came whole from `lidar/points`).
+    pub fn maps_from_slices(&self) -> u64 {
+        self.from_slices
     }
 
     fn break_off(&mut self, seq: u64) {

@@ -241,6 +241,7 @@ fn the_step_maps_from_slices_of_any_size_and_whole_the_same_map() {
     let (four, step) = run_step(&packets, 4, None);
     assert_eq!(step.broken_slices(), 0);
     assert!(four.iter().all(|m| m.1), "every map from its slices");
+    assert_eq!(step.maps_from_slices(), four.len() as u64);
     assert_eq!(four.len(), whole.len(), "one map per revolution");
     for size in [1, 16] {
         let (other, _) = run_step(&packets, size, None);

@@ -137,6 +137,7 @@ fn run(config: &Config) -> Result<()> {
                 maps,
                 mean_processing_us,
                 dropped = hop.dropped(),
+                from_slices = step.maps_from_slices(),
                 broken_slices = step.broken_slices(),
                 "mapping; {}: {}; faults: {faults}",
                 topics::LIDAR_POINTS,
@@ -151,6 +152,7 @@ fn run(config: &Config) -> Result<()> {
     let hop = step.points_hop();
     tracing::info!(
         maps = step.maps(),
+        from_slices = step.maps_from_slices(),
         dropped = hop.dropped(),
         broken_slices = step.broken_slices(),
         "mapper stopped; {}: {}",
