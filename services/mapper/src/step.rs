@@ -161,19 +161,12 @@ impl MapStep {
             self.break_off(seq);
             return None;
         }
-        let points = match &self.mount {
-            Some(t) => {
-                mount_points(t, points, &mut self.mounted);
-                &self.mounted[..]
-            }
-            None => points,
-        };
-        self.mapper.bin_slice(points);
+        let last = self.bin(points);
         let b = self.building.as_mut()?;
         b.index += 1;
         b.points = b.points.saturating_add(points.len() as u32);
-        if let Some(p) = points.last() {
-            b.last_offset_ns = p.time_offset_ns;
+        if let Some(t) = last {
+            b.last_offset_ns = t;
         }
         if h.last == 0 {
             return None;
@@ -207,6 +200,15 @@ impl MapStep {
         if self.sliced_seq.is_some_and(|s| h.seq <= s && s - h.seq < 8) {
             return None;
         }
+        // de-skewed as its slices would have been: the same map whichever way it came
+        self.building = None;
+        self.mapper.begin(self.next_deskew);
+        let t_end = self.bin(points).unwrap_or(0);
+        Some(self.finish(h, t_end, now))
+    }
+
+    /// Bins `points` (moved by the mount first); returns the last one's firing time.
+    fn bin(&mut self, points: &[Point]) -> Option<u32> {
         let points = match &self.mount {
             Some(t) => {
                 mount_points(t, points, &mut self.mounted);
@@ -214,12 +216,8 @@ impl MapStep {
             }
             None => points,
         };
-        // de-skewed as its slices would have been: the same map whichever way it came
-        self.building = None;
-        self.mapper.begin(self.next_deskew);
         self.mapper.bin_slice(points);
-        let t_end = points.last().map_or(0, |p| p.time_offset_ns);
-        Some(self.finish(h, t_end, now))
+        points.last().map(|p| p.time_offset_ns)
     }
 
     /// The odometry a revolution ending at `now` is mapped with, and the map's status.
