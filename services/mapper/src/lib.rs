@@ -238,9 +238,8 @@ pub struct Mapper {
     /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
-    /// Per zero-layer laser, in firing order: each strongest return, its point's index and its
-    /// de-skewed position.
-    rings: Vec<Vec<(RingReturn, u32, f32, f32)>>,
+    /// Per zero-layer laser, in firing order: each strongest return and its de-skewed position.
+    rings: Vec<Vec<(RingReturn, f32, f32)>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
     /// Per ring: the returns whose window has been counted ([`LastReturn::flat`]).
@@ -250,8 +249,6 @@ pub struct Mapper {
     deskew: Deskew,
     /// What the revolution being binned has found so far.
     stats: UpdateStats,
-    /// Points of the revolution binned so far.
-    next_index: u32,
 }
 
 /// A firing's last return along its laser's ring.
@@ -350,7 +347,6 @@ impl Mapper {
             spikes: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
-            next_index: 0,
             params,
         }
     }
@@ -440,7 +436,6 @@ impl Mapper {
         self.reset();
         self.deskew = deskew;
         self.stats = UpdateStats::default();
-        self.next_index = 0;
     }
 
     /// Bins the next points of the revolution, in firing order (equations 1–2): a slice must
@@ -449,7 +444,6 @@ impl Mapper {
         let mut stats = self.stats;
         self.bin(points, &mut stats);
         self.stats = stats;
-        self.next_index = self.next_index.wrapping_add(points.len() as u32);
         // the surface cue's windows already whole: counted now, not after the last packet
         if self.params.mapper.surface_min_returns > 0 {
             self.count_windows(false);
@@ -556,7 +550,6 @@ impl Mapper {
         // several degrees. Each point moves into the robot frame at the reference time, from
         // its own firing time, with (v, ω) (small-angle rotation, exact enough below 0.3 rad).
         let Deskew { v, omega, t_ref_ns } = self.deskew;
-        let first_index = self.next_index;
         let full_scale = mp.full_scale as f32;
         let gamma_abs = mp.gamma as f32 * full_scale;
         // the single-echo and stopped cues only count returns at least this bright: a beam that
@@ -600,7 +593,6 @@ impl Mapper {
                         intensity: f32::from(p.intensity),
                         range_m: horizontal,
                     },
-                    first_index.wrapping_add(k as u32),
                     p.x,
                     p.y,
                 ));
@@ -770,7 +762,7 @@ impl Mapper {
             );
             for (pn, n) in index.iter().enumerate() {
                 if let Some(n) = *n {
-                    let (rr, _, x, y) = ring[n];
+                    let (rr, x, y) = ring[n];
                     rays.push(RayReturn {
                         azimuth_deg: rr.azimuth_deg.rem_euclid(360.0),
                         x,
@@ -783,7 +775,7 @@ impl Mapper {
                 let owner = self.sightings.len() as u32;
                 let (mut sx, mut sy, mut count, mut seen) = (0.0f64, 0.0f64, 0usize, 0usize);
                 for n in index[first..=last].iter().flatten() {
-                    let (_, _, x, y) = ring[*n];
+                    let (_, x, y) = ring[*n];
                     sx += f64::from(x);
                     sy += f64::from(y);
                     count += 1;

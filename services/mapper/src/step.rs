@@ -62,6 +62,10 @@ pub struct MapStep {
     from_slices: u64,
 }
 
+/// A `lidar/points` revolution this few before the last one mapped from slices is that one or
+/// an older one, mapped already or superseded; further back, the driver restarted its count.
+const SLICED_BEHIND: u64 = 8;
+
 /// A revolution being binned from its slices: what the next slice must be.
 #[derive(Debug, Clone, Copy)]
 struct Building {
@@ -197,7 +201,10 @@ impl MapStep {
     /// [`slice`](Self::slice) says; `None` when its slices have mapped it already, or a later
     /// one's have.
     pub fn revolution(&mut self, h: &PointsHeader, points: &[Point], now: u64) -> Option<Mapped> {
-        if self.sliced_seq.is_some_and(|s| h.seq <= s && s - h.seq < 8) {
+        if self
+            .sliced_seq
+            .is_some_and(|s| h.seq <= s && s - h.seq < SLICED_BEHIND)
+        {
             return None;
         }
         // de-skewed as its slices would have been: the same map whichever way it came

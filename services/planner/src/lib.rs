@@ -283,8 +283,8 @@ const END_RINGS_M: [f32; 2] = [0.3, 0.6];
 
 /// True when the solid cell (r, c) is at a free end of a wall standing on open floor — the
 /// mouth of a corridor, the jamb of a door in a wall: on each square ring [`END_RINGS_M`]
-/// around it the solid cells all lie to one side (the unit vectors towards them sum to at least
-/// 0.9 of their count: a wall's middle and a corner are none), the same side on both rings,
+/// around it the solid cells all lie to one side ([`route::one_side`]: a wall's middle and a
+/// corner are none), the same side on both rings,
 /// with at least one on each (a post or a pair of posts is none; [`is_post`] takes a lone
 /// post), nothing on the near ring is passable (a bush at a hedge's gap, a trunk in grass) and
 /// the rings lie within the map. Glass is not counted: a pane's end beside a door has no wall
@@ -300,29 +300,18 @@ fn is_end(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
         if r < k || c < k || r + k >= n || c + k >= n {
             return false;
         }
-        let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
-        for dr in -k..=k {
-            for dc in -k..=k {
-                if dr.abs().max(dc.abs()) != k {
-                    continue;
-                }
-                let class = classes[grid.index((r + dr) as usize, (c + dc) as usize)];
-                if ring == 0 && class == cell_class::PASSABLE {
-                    return false;
-                }
-                if class == cell_class::SOLID {
-                    let len = ((dr * dr + dc * dc) as f32).sqrt();
-                    sx += dr as f32 / len;
-                    sy += dc as f32 / len;
-                    count += 1;
-                }
-            }
-        }
-        let len = sx.hypot(sy);
-        if count == 0 || len < 0.9 * count as f32 {
+        let mut passable = false;
+        let solid = |dr: isize, dc: isize| {
+            let class = classes[grid.index((r + dr) as usize, (c + dc) as usize)];
+            passable |= ring == 0 && class == cell_class::PASSABLE;
+            class == cell_class::SOLID
+        };
+        let Some(dir) = route::one_side(k, solid) else {
+            return false;
+        };
+        if passable {
             return false;
         }
-        let dir = (sx / len, sy / len);
         if let Some((ux, uy)) = towards
             && ux * dir.0 + uy * dir.1 < 0.9
         {

@@ -446,10 +446,8 @@ pub const END_RING: usize = 2;
 /// Marks the free ends of walls and panes on the coarse grid: `obstacle` holds 0 at coarse
 /// obstacle cells (solid, glass or suspected glass: a pane's line drawn on ends where the
 /// drawing does). An obstacle cell is an end when the obstacle cells on the ring of cells
-/// [`END_RING`] away (Chebyshev) all lie to one side of it — the unit vectors towards them sum
-/// to at least 0.9 of their count (a wall's end, one to three cells thick: 0.93–1): a wall's
-/// middle (two opposite sides) or a corner (two legs at a right angle: 0.71, 0.83 with legs two
-/// cells thick) is none, a lone post (no neighbour) is none, and a cell whose ring
+/// [`END_RING`] away all lie to one side of it ([`one_side`]): a wall's middle or a corner is
+/// none, a lone post (no neighbour) is none, and a cell whose ring
 /// leaves the map is none (a wall cut by the map's border does not end there). `ends` gets 0 at
 /// the ends and the distance to the nearest one elsewhere (m, capped at the map's side);
 /// false when there is none.
@@ -464,22 +462,10 @@ fn free_ends(obstacle: &[f32], n: usize, cell_m: f32, ends: &mut Vec<f32>) -> bo
             if obstacle[r * n + c] != 0.0 {
                 continue;
             }
-            let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
-            for dr in -k..=k {
-                for dc in -k..=k {
-                    if dr.abs().max(dc.abs()) != k {
-                        continue;
-                    }
-                    let i = (r as isize + dr) as usize * n + (c as isize + dc) as usize;
-                    if obstacle[i] == 0.0 {
-                        let len = ((dr * dr + dc * dc) as f32).sqrt();
-                        sx += dr as f32 / len;
-                        sy += dc as f32 / len;
-                        count += 1;
-                    }
-                }
-            }
-            if count > 0 && sx.hypot(sy) >= 0.9 * count as f32 {
+            let at = |dr: isize, dc: isize| {
+                obstacle[(r as isize + dr) as usize * n + (c as isize + dc) as usize] == 0.0
+            };
+            if one_side(k, at).is_some() {
                 ends[r * n + c] = 0.0;
                 any = true;
             }
@@ -489,6 +475,27 @@ fn free_ends(obstacle: &[f32], n: usize, cell_m: f32, ends: &mut Vec<f32>) -> bo
         chamfer(ends, n, cell_m);
     }
     any
+}
+
+/// The cells `hit` picks on the square ring `k` cells around a cell (Chebyshev distance `k`,
+/// offsets in rows and columns): the unit direction towards them, when there is at least one and
+/// they all lie to one side — their unit vectors sum to at least 0.9 of their count (a wall's end,
+/// one to three cells thick: 0.93–1; a wall's middle, with two opposite sides, and a corner, two
+/// legs at a right angle: 0.71–0.83, are not).
+pub(crate) fn one_side(k: isize, mut hit: impl FnMut(isize, isize) -> bool) -> Option<(f32, f32)> {
+    let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
+    for dr in -k..=k {
+        for dc in -k..=k {
+            if dr.abs().max(dc.abs()) == k && hit(dr, dc) {
+                let len = ((dr * dr + dc * dc) as f32).sqrt();
+                sx += dr as f32 / len;
+                sy += dc as f32 / len;
+                count += 1;
+            }
+        }
+    }
+    let len = sx.hypot(sy);
+    (count > 0 && len >= 0.9 * count as f32).then(|| (sx / len, sy / len))
 }
 
 #[cfg(test)]
@@ -826,7 +833,8 @@ mod tests {
     #[test]
     fn a_long_bodys_route_keeps_off_a_walls_free_end() {
         let g = grid();
-        let coarse = |c: &[u8]| {
+        // Spot's route, keeping `end_m` off free ends
+        let route = |c: &[u8], end_m: f32| {
             let mut r = Route::default();
             r.build(
                 &RouteParams {
@@ -836,7 +844,7 @@ mod tests {
                     swing_m: 0.35,
                     swing_weight: 4.0,
                     suspect_weight: 0.0,
-                    end_m: 1.0,
+                    end_m,
                     settle_within_m: 0.0,
                 },
                 g,
@@ -846,6 +854,7 @@ mod tests {
             );
             r
         };
+        let coarse = |c: &[u8]| route(c, 1.0);
         // the ends the route found, as robot-frame points
         let ends_of = |r: &Route| -> Vec<(f32, f32)> {
             let n = r.coarse.cells;
@@ -867,27 +876,7 @@ mod tests {
             assert!((x - 1.0).abs() < 0.3 && (y - 0.75).abs() < 0.45, "{x} {y}");
         }
         // beside the end costs more than as far again from the wall's middle
-        let plain = |c: &[u8]| {
-            let mut r = Route::default();
-            r.build(
-                &RouteParams {
-                    cell_m: 0.25,
-                    radius_m: 0.35,
-                    cost_weight: 0.0,
-                    swing_m: 0.35,
-                    swing_weight: 4.0,
-                    suspect_weight: 0.0,
-                    end_m: 0.0,
-                    settle_within_m: 0.0,
-                },
-                g,
-                c,
-                &vec![0; c.len()],
-                (4.0, 4.0),
-            );
-            r
-        };
-        let without = plain(&wall);
+        let without = route(&wall, 0.0);
         let (a, b) = (without.value(0.5, 0.3), r.value(0.5, 0.3));
         assert!(b > a + 0.3, "dearer by the end: {a} {b}");
         assert!(without.value(-3.0, -3.0).is_finite() && r.value(-3.0, -3.0).is_finite());
