@@ -16,10 +16,17 @@
 //!   write access to the device and the units bind it into their private `/dev`.
 //! * **Real-time scheduling.** Under the normal scheduler a woken service may wait behind, or be
 //!   preempted by, whatever else runs (the simulator, a compiler). A positive
-//!   `latency.realtime_priority` puts the service under `SCHED_FIFO` at that priority. Off by
+//!   `latency.realtime_priority` puts the service under `SCHED_FIFO`: the drivers at that
+//!   priority and each other process a step lower the further it stands from the command
+//!   ([`priority_of`]): the planner, then the mapper, then the foliage classifier (its alarm is
+//!   taken when it comes, the command never waits for it), then everything else (the
+//!   simulator, the Zenoh bridge). With one priority for all, a process that is running can
+//!   never be preempted by another, so on two cores the mapper, the classifier and the planner
+//!   queued behind each other on one core while the simulator held the other (seen with
+//!   `perf sched timehist`: 0.4–0.6 ms of scheduling delay each at a revolution's end). Off by
 //!   default: a real-time process that never sleeps starves the rest of its CPU, and a capture
-//!   replayed at full speed never sleeps. `mimnav demo` turns it on (`--realtime-priority`); the systemd units
-//!   allow it (`LimitRTPRIO=`).
+//!   replayed at full speed never sleeps. `mimnav demo` turns it on (`--realtime-priority`); the
+//!   systemd units allow it (`LimitRTPRIO=`).
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
@@ -147,11 +154,43 @@ pub fn set_fifo(priority: i32) -> Result<bool, LatencyError> {
     Ok(true)
 }
 
-/// Applies `[latency]` for a service's lifetime: logged once each, as info when in force and as
-/// a warning (naming what failed and the way out) when not; the service runs either way. The
-/// CPU wake-up latency request returned holds while it lives.
-pub fn apply(config: &crate::config::Common) -> Option<CpuLatencyRequest> {
-    let priority = config.latency.realtime_priority;
+/// How many steps below `latency.realtime_priority` each process runs: the order of the path
+/// from the sensor to the command. A process not named here runs [`OFF_PATH`] steps below.
+const STEPS_BELOW: &[(&str, i32)] = &[
+    // the drivers: a packet or a telegram not read in time is lost; their work is short
+    ("mimnav-velodyne", 0),
+    ("mimnav-sick", 0),
+    ("mimnav-kobuki", 0),
+    // the end of the path: once its map is in, nothing should come before the command
+    ("mimnav-planner", 1),
+    ("mimnav-mapper", 2),
+    // off the command's path: the planner takes the newest alarm when it comes
+    ("mimnav-foliage", 3),
+];
+
+/// Steps below for everything else: the simulator (standing in for the sensor and the base,
+/// which on a robot take no CPU of the computer) and the bridges.
+pub const OFF_PATH: i32 = 4;
+
+/// The SCHED_FIFO priority process `name` asks for when `latency.realtime_priority` is `base`:
+/// `base` less its steps below ([`STEPS_BELOW`]), never below 1; 0 (the normal scheduler) when
+/// `base` ≤ 0.
+pub fn priority_of(name: &str, base: i32) -> i32 {
+    if base <= 0 {
+        return 0;
+    }
+    let below = STEPS_BELOW
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or(OFF_PATH, |&(_, b)| b);
+    (base - below).max(1)
+}
+
+/// Applies `[latency]` for service `name`'s lifetime: logged once each, as info when in force
+/// and as a warning (naming what failed and the way out) when not; the service runs either way.
+/// The CPU wake-up latency request returned holds while it lives.
+pub fn apply(name: &str, config: &crate::config::Common) -> Option<CpuLatencyRequest> {
+    let priority = priority_of(name, config.latency.realtime_priority);
     match set_fifo(priority) {
         Ok(true) => tracing::info!(priority, "real-time scheduling (SCHED_FIFO) in force"),
         Ok(false) => {}
@@ -232,6 +271,22 @@ mod tests {
         assert!(e.starts_with("cannot open "), "{e}");
         assert!(e.contains("no-such-device"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn the_path_to_the_command_goes_first() {
+        let p = |name| priority_of(name, 10);
+        assert_eq!(p("mimnav-velodyne"), 10);
+        assert_eq!(p("mimnav-sick"), 10);
+        assert!(p("mimnav-planner") < p("mimnav-velodyne"));
+        assert!(p("mimnav-mapper") < p("mimnav-planner"));
+        assert!(p("mimnav-foliage") < p("mimnav-mapper"));
+        assert!(p("mimnav-sim") < p("mimnav-foliage"));
+        assert_eq!(p("mimnav-sim"), p("mimnav-zenoh"));
+        // never below 1, and off stays off
+        assert_eq!(priority_of("mimnav-sim", 2), 1);
+        assert_eq!(priority_of("mimnav-velodyne", 0), 0);
+        assert_eq!(priority_of("mimnav-planner", -3), 0);
     }
 
     #[test]

@@ -88,7 +88,7 @@ where
         tracing::info!("no config file: running on the built-in defaults");
     }
     // held until the service ends
-    let _cpu_latency = crate::realtime::apply(&config);
+    let _cpu_latency = crate::realtime::apply(name, &config);
     crate::cli::finish(name, run(args, config))
 }
 

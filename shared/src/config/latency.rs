@@ -13,8 +13,9 @@ pub struct LatencyConfig {
     /// out of idle states slower to leave (0: the CPUs poll when idle). −1 leaves the CPUs'
     /// power management alone.
     pub cpu_wakeup_us: i32,
-    /// The SCHED_FIFO priority the driver, mapper, foliage classifier and planner run at (1–99;
-    /// 0: the normal scheduler). Off by default: a real-time process that never sleeps starves
+    /// The SCHED_FIFO priority the drivers run at (1–99; 0: the normal scheduler); the planner,
+    /// mapper, foliage classifier and the rest run 1, 2, 3 and 4 steps lower
+    /// ([`crate::realtime::priority_of`]). Off by default: a real-time process that never sleeps starves
     /// the rest of its CPU, and a capture replayed at full speed never sleeps.
     pub realtime_priority: i32,
 }
