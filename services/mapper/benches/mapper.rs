@@ -216,15 +216,28 @@ struct Measured {
     wall: (f64, f64),
 }
 
-/// Where the last `lidar/slices` sample of a revolution starts at most: 4 packets of 384 points
-/// before its end (`velodyne.slice_packets`, dual return), on a firing's boundary.
-fn last_slice_start(points: &[Point]) -> usize {
-    let mut at = points.len().saturating_sub(4 * 384);
-    while at > 0 && at < points.len() && points[at].time_offset_ns == points[at - 1].time_offset_ns
-    {
-        at += 1;
+/// Where a revolution's `lidar/slices` samples start: every 4 packets of 384 points
+/// (`velodyne.slice_packets`, dual return) counted back from its end, each on a firing's
+/// boundary. The last one starts at most 4 packets before the end.
+fn slice_starts(points: &[Point]) -> Vec<usize> {
+    let mut starts = Vec::new();
+    let mut end = points.len();
+    while end > 0 {
+        let mut at = end.saturating_sub(4 * 384);
+        while at > 0 && at < end && points[at].time_offset_ns == points[at - 1].time_offset_ns {
+            at += 1;
+        }
+        if at >= end {
+            break;
+        }
+        starts.push(at);
+        end = at;
     }
-    at
+    if starts.last() != Some(&0) {
+        starts.push(0);
+    }
+    starts.reverse();
+    starts
 }
 
 /// Drives `drive` to its end (or `max` revolutions), [`CHUNK`] revolutions simulated at a time
@@ -254,7 +267,7 @@ fn measure(drive: &mut Drive, max: usize) -> Measured {
             let odom = OdomInput::Fresh(r.odom);
             let mut best = f64::INFINITY;
             let mut stats = UpdateStats::default();
-            let (head, tail) = r.points.split_at(last_slice_start(&r.points));
+            let starts = slice_starts(&r.points);
             let t_end = r.points.last().map_or(0, |p| p.time_offset_ns);
             let mut tail_best = f64::INFINITY;
             for mapper in &mut mappers {
@@ -262,9 +275,11 @@ fn measure(drive: &mut Drive, max: usize) -> Measured {
                 // slices binned as they come, then its last slice and the map
                 let t = Instant::now();
                 mapper.begin(Deskew::of(odom, t_end));
-                mapper.bin_slice(head);
+                for w in starts.windows(2) {
+                    mapper.bin_slice(&r.points[w[0]..w[1]]);
+                }
                 let t_last = Instant::now();
-                mapper.bin_slice(tail);
+                mapper.bin_slice(&r.points[starts[starts.len() - 1]..]);
                 stats = std::hint::black_box(mapper.finish(odom, r.stamp_ns));
                 let us = t.elapsed().as_secs_f64() * 1e6;
                 tail_best = tail_best.min(t_last.elapsed().as_secs_f64() * 1e6);

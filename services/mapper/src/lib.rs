@@ -186,6 +186,9 @@ pub struct UpdateStats {
     pub surface_memory: u32,
     /// Entries in the tall-cell memory.
     pub tall_memory: u32,
+    /// Cells classified by their evidence after the last slice (the rest were settled as the
+    /// slices arrived): every cell written when the revolution came whole.
+    pub classified_at_end: u32,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -207,9 +210,19 @@ pub struct Mapper {
     layer: Vec<LayerCell>,
     /// Per cell: the dual-return evidence.
     evidence: Vec<Evidence>,
-    /// Cells written in this revolution (cleared at the next).
+    /// Cells written in this revolution (cleared at the next), in the order first written.
     touched: Vec<u32>,
-    dirty: Vec<bool>,
+    /// Per cell: [`UNTOUCHED`], [`TOUCHED`] or [`SETTLED`] in this revolution.
+    state: Vec<u8>,
+    /// Per cell with returns: its class by its own evidence ([`Mapper::classify_cell`]), with
+    /// [`TALL_BIT`]; [`NO_HIT_CLASS`] without returns. Valid where `state` is [`SETTLED`].
+    hit_class: Vec<u8>,
+    /// `touched[..settled]` have been settled (classified as the slices arrived).
+    settled: usize,
+    /// `touched.len()` at the end of each slice binned so far.
+    slice_ends: Vec<usize>,
+    /// Settled cells written again since: classified anew at the revolution's end.
+    redo: Vec<u32>,
     /// Glass detected in this revolution (cell indices, sorted, unique).
     glass_cells: Vec<usize>,
     reach: Vec<f32>,
@@ -235,15 +248,20 @@ pub struct Mapper {
     tall_kept: Kept,
     /// Tall cells of this revolution.
     tall_cells: Vec<usize>,
-    /// Cells the surface cue looks at: not bright, tall or opaque (all false between updates).
+    /// Cells the surface cue looks at: not bright, tall or opaque (cleared with the cells written,
+    /// at the next revolution's start).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
     /// Per zero-layer laser, in firing order: each strongest return and its de-skewed position.
     rings: Vec<Vec<(RingReturn, f32, f32)>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
-    /// Per ring: the returns whose window has been counted ([`LastReturn::flat`]).
+    /// Per ring: the returns whose window has been counted.
     last_counted: Vec<usize>,
+    /// The last returns with enough of their neighbouring firings at their range
+    /// (`surface_neighbours` within `surface_window`), as (cell, height): listed as soon as
+    /// their window along the ring is whole.
+    flat: Vec<(u32, f32)>,
     spikes: Vec<bool>,
     /// How the revolution being binned is de-skewed.
     deskew: Deskew,
@@ -260,12 +278,24 @@ struct LastReturn {
     z: f32,
     /// The cell it votes for, or [`NO_CELL`] (outside the grid, ground).
     cell: u32,
-    /// Enough of its neighbouring firings lie at its range (`surface_neighbours` within
-    /// `surface_window`): counted as soon as its window along the ring is complete.
-    flat: bool,
 }
 
 const NO_CELL: u32 = u32::MAX;
+
+/// A cell no point, beam or echo has written in this revolution.
+const UNTOUCHED: u8 = 0;
+/// Written, and not classified since.
+const TOUCHED: u8 = 1;
+/// Classified by its evidence as the slices arrived ([`Mapper::hit_class`]), not written since.
+const SETTLED: u8 = 2;
+/// [`Mapper::hit_class`] of a cell without returns: free or unknown by the reach.
+const NO_HIT_CLASS: u8 = u8::MAX;
+/// [`Mapper::hit_class`]'s flag of a tall cell (a return above `tall_m`, no beam through).
+const TALL_BIT: u8 = 0x80;
+/// A cell first written before the end of the slice this many slices back is settled after
+/// each slice: the sweep has moved on from most of them, and the few it comes back to (cells
+/// near the sensor span several slices' azimuths) are classified anew at the end (`redo`).
+const SETTLE_LAG: usize = 1;
 
 /// A weak echo at most this far behind a bright echo of the same firing is the inside of the
 /// same object (a dense bush returns its front brightly and a trace from within), m.
@@ -323,7 +353,11 @@ impl Mapper {
             layer: vec![LayerCell::default(); m * n2],
             evidence: vec![Evidence::default(); n2],
             touched: Vec::with_capacity(n2),
-            dirty: vec![false; n2],
+            state: vec![UNTOUCHED; n2],
+            hit_class: vec![NO_HIT_CLASS; n2],
+            settled: 0,
+            slice_ends: Vec::new(),
+            redo: Vec::new(),
             glass_cells: Vec::new(),
             reach: vec![0.0; REACH_BINS],
             cell_range,
@@ -344,6 +378,7 @@ impl Mapper {
             rings: vec![Vec::new(); 16],
             last_rings: vec![Vec::new(); 16],
             last_counted: vec![0; 16],
+            flat: Vec::new(),
             spikes: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
@@ -448,36 +483,39 @@ impl Mapper {
         if self.params.mapper.surface_min_returns > 0 {
             self.count_windows(false);
         }
+        // the cells the sweep has left behind: classified now, not after the last packet
+        self.slice_ends.push(self.touched.len());
+        if let Some(&upto) = self
+            .slice_ends
+            .len()
+            .checked_sub(1 + SETTLE_LAG)
+            .and_then(|k| self.slice_ends.get(k))
+        {
+            self.settle(upto);
+        }
     }
 
     /// Ends the revolution begun by [`begin`](Self::begin): glass, classes, memories and cost
     /// from what was binned. `now_ns` is the revolution's stamp (ages the memories).
     pub fn finish(&mut self, odom: OdomInput, now_ns: u64) -> UpdateStats {
-        let mut stats = self.stats;
         // glass seen in this revolution (Algorithm 1 and equation 6's layer difference)
         self.detect_glass();
-        stats.glass_detected = self.glass_cells.len() as u32;
         // the panes (equations 6 and 7)
         self.remember_glass(odom, now_ns);
-        stats.glass_memory = self.panes.evidence_len() as u32;
         // classes (equations 3–5) and cost
         let surface_min_returns = returns(self.params.mapper.surface_min_returns);
         let surface_cue = surface_min_returns > 0;
-        self.classify(surface_cue);
+        self.classify();
+        let mut stats = self.stats;
+        stats.glass_detected = self.glass_cells.len() as u32;
+        stats.glass_memory = self.panes.evidence_len() as u32;
         let grid = self.params.grid;
         if surface_cue {
             // returns on a surface along the ring: a rock hidden in grass
-            self.mark_surfaces();
-            for t in 0..self.touched.len() {
-                let i = self.touched[t] as usize;
-                if self.surface_candidate[i] {
-                    self.surface_candidate[i] = false;
-                    if self.evidence[i].surface >= surface_min_returns {
-                        self.classes[i] = cell_class::SOLID;
-                        self.cost[i] = 255;
-                        self.surface_cells.push(i);
-                    }
-                }
+            self.mark_surfaces(surface_min_returns);
+            for &i in &self.surface_cells {
+                self.classes[i] = cell_class::SOLID;
+                self.cost[i] = 255;
             }
         }
         stats.surface_found = self.surface_cells.len() as u32;
@@ -523,9 +561,15 @@ impl Mapper {
             let i = i as usize;
             self.evidence[i] = Evidence::default();
             self.layer[i * m..(i + 1) * m].fill(LayerCell::default());
-            self.dirty[i] = false;
+            self.state[i] = UNTOUCHED;
+            self.hit_class[i] = NO_HIT_CLASS;
+            self.surface_candidate[i] = false;
         }
         self.touched.clear();
+        self.redo.clear();
+        self.tall_cells.clear();
+        self.slice_ends.clear();
+        self.settled = 0;
         self.reach.fill(0.0);
         for r in &mut self.rings {
             r.clear();
@@ -534,6 +578,7 @@ impl Mapper {
             r.clear();
         }
         self.last_counted.fill(0);
+        self.flat.clear();
     }
 
     /// Bins every point into its cell's layers (equations 1–2), de-skewed by the odometry's
@@ -616,7 +661,7 @@ impl Mapper {
                 if gap > 1.5 * grid.cell_m {
                     if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
                         let ni = grid.index(nr, nc);
-                        touch(&mut self.dirty, &mut self.touched, ni);
+                        touch(&mut self.state, &mut self.touched, &mut self.redo, ni);
                         let near_z = if q_nearer { q.z } else { p.z };
                         let e = &mut self.evidence[ni];
                         if e.passed == 0 || near_z < e.pass_low_z {
@@ -633,7 +678,7 @@ impl Mapper {
                         && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
                     {
                         let fi = grid.index(fr, fc);
-                        touch(&mut self.dirty, &mut self.touched, fi);
+                        touch(&mut self.state, &mut self.touched, &mut self.redo, fi);
                         self.evidence[fi].stopped = self.evidence[fi].stopped.saturating_add(1);
                     }
                 }
@@ -643,7 +688,7 @@ impl Mapper {
                     && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
                 {
                     let fi = grid.index(fr, fc);
-                    touch(&mut self.dirty, &mut self.touched, fi);
+                    touch(&mut self.state, &mut self.touched, &mut self.redo, fi);
                     self.evidence[fi].inside = self.evidence[fi].inside.saturating_add(1);
                 }
             }
@@ -668,7 +713,6 @@ impl Mapper {
                     range: if p.z < ground_z { f32::NAN } else { d },
                     z: p.z,
                     cell: cell.map_or(NO_CELL, |i| i as u32),
-                    flat: false,
                 });
             }
             if p.z < ground_z {
@@ -691,7 +735,7 @@ impl Mapper {
             }
             if any {
                 stats.binned += 1;
-                touch(&mut self.dirty, &mut self.touched, i);
+                touch(&mut self.state, &mut self.touched, &mut self.redo, i);
                 let e = &mut self.evidence[i];
                 e.hits = e.hits.saturating_add(1);
                 if e.hits == 1 || p.z > e.top_z {
@@ -845,71 +889,111 @@ impl Mapper {
 
     /// Equations 3–5: every cell free or unknown by the beams' reach, then each cell with
     /// returns solid or passable by its layers' mean intensity and the cues.
-    fn classify(&mut self, surface_cue: bool) {
-        let (m, grid) = (self.bounds.len(), self.params.grid);
-        let (below, above, zero) = (self.roles[0], self.roles[1], self.roles[2]);
-        // classes (equations 3–5) and cost: first free or unknown everywhere (one pass the
-        // compiler can vectorise), then the cells with returns, then glass on top
+    fn classify(&mut self) {
+        let grid = self.params.grid;
+        // the cells the slices have not settled, and those written again since
+        self.stats.classified_at_end = (self.touched.len() - self.settled + self.redo.len()) as u32;
+        self.settle(self.touched.len());
+        for t in 0..self.redo.len() {
+            let i = self.redo[t] as usize;
+            if self.state[i] == TOUCHED {
+                self.settle_cell(i);
+            }
+        }
+        // classes (equations 3–5) and cost in one pass the compiler can vectorise: a cell
+        // with returns as settled, any other free or unknown by the beams' reach (glass and
+        // the memories go on top after)
         let reach_margin = grid.cell_m;
-        for ((class, &range), &bin) in self
+        let passable_cost = self.params.mapper.passable_cell_cost();
+        let reach = &self.reach;
+        for ((((class, cost), &range), &bin), &hit) in self
             .classes
             .iter_mut()
+            .zip(self.cost.iter_mut())
             .zip(&self.cell_range)
             .zip(&self.cell_bin)
+            .zip(&self.hit_class)
         {
-            *class = if range < self.reach[usize::from(bin)] + reach_margin {
-                cell_class::FREE
+            let seen = hit & !TALL_BIT;
+            (*class, *cost) = if hit != NO_HIT_CLASS {
+                let c = if seen == cell_class::PASSABLE {
+                    passable_cost
+                } else {
+                    255
+                };
+                (seen, c)
+            } else if range < reach[usize::from(bin)] + reach_margin {
+                (cell_class::FREE, 0)
             } else {
-                cell_class::UNKNOWN
+                (cell_class::UNKNOWN, 0)
             };
         }
-        self.cost.fill(0);
+        // settled tall, and written since so that it no longer is
+        let hit_class = &self.hit_class;
+        self.tall_cells
+            .retain(|&i| hit_class[i] != NO_HIT_CLASS && hit_class[i] & TALL_BIT != 0);
+        self.surface_cells.clear();
+    }
+
+    /// Settles `touched[self.settled..upto]`.
+    fn settle(&mut self, upto: usize) {
+        for t in self.settled..upto {
+            let i = self.touched[t] as usize;
+            self.settle_cell(i);
+        }
+        self.settled = self.settled.max(upto);
+    }
+
+    /// Classifies cell `i` by its own evidence (equations 3–5) into `hit_class` and marks it
+    /// settled: a cell with returns is passable or solid; it is tall, or one the surface cue
+    /// looks at. The same whenever it runs, so a cell settled as the slices arrive and not
+    /// written since is classified as it would be at the revolution's end.
+    fn settle_cell(&mut self, i: usize) {
+        self.state[i] = SETTLED;
+        let e = self.evidence[i];
+        if e.hits == 0 {
+            self.hit_class[i] = NO_HIT_CLASS;
+            return;
+        }
+        let was_tall = self.hit_class[i] != NO_HIT_CLASS && self.hit_class[i] & TALL_BIT != 0;
+        let m = self.bounds.len();
+        let (below, above, zero) = (self.roles[0], self.roles[1], self.roles[2]);
         let mp = &self.params.mapper;
         let gamma = mp.gamma as f32;
-        self.surface_cells.clear();
-        self.tall_cells.clear();
         let solid_max_abs = mp.solid_max as f32 * mp.full_scale as f32;
         let tall_z = (mp.tall_m - self.params.robot.sensor_height_m) as f32;
         let (min_returns_solid, stop_min_returns) =
             (returns(mp.min_returns_solid), returns(mp.stop_min_returns));
-        let passable_cost = mp.passable_cell_cost();
-        for t in 0..self.touched.len() {
-            let i = self.touched[t] as usize;
-            let e = self.evidence[i];
-            if e.hits == 0 {
-                continue;
-            }
-            let mean = self
-                .mean(below, i)
-                .max(self.mean(above, i))
-                .max(self.mean(zero, i));
-            let brightest = [below, above, zero]
-                .iter()
-                .map(|&j| self.layer[i * m + j].max)
-                .max()
-                .unwrap_or(0);
-            let bright = f32::from(brightest) > solid_max_abs;
-            let ended = e.single.saturating_add(e.stopped);
-            let opaque = e.passed == 0 && ended >= min_returns_solid && 2 * ended > e.hits;
-            let opaque = opaque || 2 * e.inside >= e.hits;
-            // taller than grass grows and no beam passed through it: a trunk or a bush
-            let tall = e.top_z > tall_z && e.passed == 0;
-            // many returns and not one beam through: a surface that stops every beam, however
-            // faint (grass lets some beams on from nearly every cell it returns from)
-            let stops = e.passed == 0 && e.hits >= stop_min_returns;
-            // the surface cue looks at cells that stand out neither by brightness or height nor
-            // as an opaque surface (walls: the memory stays small)
-            self.surface_candidate[i] = surface_cue && !tall && !bright && !opaque;
-            if tall {
-                self.tall_cells.push(i);
-            }
-            if mean <= gamma && !opaque && !tall && !stops && !bright {
-                self.classes[i] = cell_class::PASSABLE;
-                self.cost[i] = passable_cost;
-            } else {
-                self.classes[i] = cell_class::SOLID;
-                self.cost[i] = 255;
-            }
+        let mean = self
+            .mean(below, i)
+            .max(self.mean(above, i))
+            .max(self.mean(zero, i));
+        let brightest = [below, above, zero]
+            .iter()
+            .map(|&j| self.layer[i * m + j].max)
+            .max()
+            .unwrap_or(0);
+        let bright = f32::from(brightest) > solid_max_abs;
+        let ended = e.single.saturating_add(e.stopped);
+        let opaque = e.passed == 0 && ended >= min_returns_solid && 2 * ended > e.hits;
+        let opaque = opaque || 2 * e.inside >= e.hits;
+        // taller than grass grows and no beam passed through it: a trunk or a bush
+        let tall = e.top_z > tall_z && e.passed == 0;
+        // many returns and not one beam through: a surface that stops every beam, however
+        // faint (grass lets some beams on from nearly every cell it returns from)
+        let stops = e.passed == 0 && e.hits >= stop_min_returns;
+        // the surface cue looks at cells that stand out neither by brightness or height nor
+        // as an opaque surface (walls: the memory stays small)
+        self.surface_candidate[i] = mp.surface_min_returns > 0 && !tall && !bright && !opaque;
+        let class = if mean <= gamma && !opaque && !tall && !stops && !bright {
+            cell_class::PASSABLE
+        } else {
+            cell_class::SOLID
+        };
+        self.hit_class[i] = if tall { class | TALL_BIT } else { class };
+        // listed once: when first found tall (one no longer tall leaves at the end)
+        if tall && !was_tall {
+            self.tall_cells.push(i);
         }
     }
 }
@@ -960,10 +1044,10 @@ impl Mapper {
             return;
         }
         let grid = self.params.grid;
-        let (classes, evidence, dirty) = (&self.classes, &self.evidence, &self.dirty);
+        let (classes, evidence, state) = (&self.classes, &self.evidence, &self.state);
         // a beam through the cell now: open (a curtain); forgotten with fresh odometry, at least
         // not drawn without
-        let through = |i: usize| dirty[i] && evidence[i].passed > 0;
+        let through = |i: usize| state[i] != UNTOUCHED && evidence[i].passed > 0;
         if let OdomInput::Fresh(Odom { pose, .. }) = odom {
             self.tall_kept.remember(
                 &self.tall_cells,
@@ -993,20 +1077,23 @@ impl Mapper {
     /// `surface_window` firings on each side within `surface_tolerance_m` of its range counts
     /// as a surface return in its cell. Only the candidates (cells not bright, tall or opaque)
     /// are looked at.
-    fn mark_surfaces(&mut self) {
+    /// The candidates that reach `min_returns` go to `surface_cells`.
+    fn mark_surfaces(&mut self, min_returns: u16) {
         self.count_windows(true);
-        for ring in &self.last_rings {
-            for lr in ring {
-                if !lr.flat || lr.cell == NO_CELL || !self.surface_candidate[lr.cell as usize] {
-                    continue;
-                }
-                let e = &mut self.evidence[lr.cell as usize];
-                // below every beam that passed through the cell: a curtain lets beams through
-                // at every height, grass over a rock only above the rock
-                if e.passed > 0 && lr.z >= e.pass_low_z {
-                    continue;
-                }
-                e.surface = e.surface.saturating_add(1);
+        for &(cell, z) in &self.flat {
+            let cell = cell as usize;
+            if !self.surface_candidate[cell] {
+                continue;
+            }
+            let e = &mut self.evidence[cell];
+            // below every beam that passed through the cell: a curtain lets beams through at
+            // every height, grass over a rock only above the rock
+            if e.passed > 0 && z >= e.pass_low_z {
+                continue;
+            }
+            e.surface = e.surface.saturating_add(1);
+            if e.surface == min_returns {
+                self.surface_cells.push(cell);
             }
         }
     }
@@ -1018,7 +1105,7 @@ impl Mapper {
         let w = self.params.mapper.surface_window as usize;
         let need = self.params.mapper.surface_neighbours as usize;
         let tol = self.params.mapper.surface_tolerance_m as f32;
-        for (ring, counted) in self.last_rings.iter_mut().zip(&mut self.last_counted) {
+        for (ring, counted) in self.last_rings.iter().zip(&mut self.last_counted) {
             let end = if whole {
                 ring.len()
             } else {
@@ -1039,7 +1126,9 @@ impl Mapper {
                         break;
                     }
                 }
-                ring[k].flat = same > need;
+                if same > need {
+                    self.flat.push((lr.cell, lr.z));
+                }
             }
             *counted = (*counted).max(end);
         }
@@ -1229,11 +1318,19 @@ struct Evidence {
     top_z: f32,
 }
 
+/// Cell `i` is written: listed in `touched` the first time, in `redo` when it was settled.
 #[inline]
-fn touch(dirty: &mut [bool], touched: &mut Vec<u32>, i: usize) {
-    if !dirty[i] {
-        dirty[i] = true;
-        touched.push(i as u32);
+fn touch(state: &mut [u8], touched: &mut Vec<u32>, redo: &mut Vec<u32>, i: usize) {
+    match state[i] {
+        UNTOUCHED => {
+            state[i] = TOUCHED;
+            touched.push(i as u32);
+        }
+        SETTLED => {
+            state[i] = TOUCHED;
+            redo.push(i as u32);
+        }
+        _ => {}
     }
 }
 

@@ -161,9 +161,14 @@ fn a_revolution_binned_in_pieces_maps_bit_for_bit_as_whole() {
     let params = Config::default().mapper_params();
     let (mut whole, mut pieces) = (Mapper::new(params.clone()), Mapper::new(params));
     let mut cut = 12_345usize;
+    let (mut at_end_whole, mut at_end_pieces) = (0u64, 0u64);
     for (rev, o) in revs.iter().zip(&odoms) {
         let input = odom_input(o);
-        whole.update(&rev.points, input, rev.header.stamp_ns);
+        at_end_whole += u64::from(
+            whole
+                .update(&rev.points, input, rev.header.stamp_ns)
+                .classified_at_end,
+        );
         let t_end = rev.points.last().map_or(0, |p| p.time_offset_ns);
         pieces.begin(Deskew::of(input, t_end));
         let pts = &rev.points;
@@ -178,7 +183,7 @@ fn a_revolution_binned_in_pieces_maps_bit_for_bit_as_whole() {
             pieces.bin_slice(&pts[at..end]);
             at = end;
         }
-        pieces.finish(input, rev.header.stamp_ns);
+        at_end_pieces += u64::from(pieces.finish(input, rev.header.stamp_ns).classified_at_end);
         assert!(
             snapshot(&whole) == snapshot(&pieces),
             "revolution {} differs",
@@ -191,6 +196,12 @@ fn a_revolution_binned_in_pieces_maps_bit_for_bit_as_whole() {
         .filter(|&&c| c == cell_class::SOLID)
         .count();
     assert!(solid > 50, "the grass world's map has solids: {solid}");
+    // most cells were classified as the pieces came, not after the last one (issue 27)
+    println!("cells classified after the last piece: {at_end_pieces} of {at_end_whole}");
+    assert!(
+        at_end_pieces * 5 < at_end_whole,
+        "{at_end_pieces} of {at_end_whole} cells classified after the last piece"
+    );
 }
 
 /// The packets through a step fed as the mapper service feeds it: slices of `size` packets
