@@ -103,6 +103,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
     let grid = config.map.grid();
     let p = &params.planner;
     let mut kernels = KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles);
+    let mut scratch = mimnav_planner::inflate::Scratch::default();
     let (mut cost, mut clear, mut route) = (
         Vec::new(),
         mimnav_planner::clearance::Clearance::default(),
@@ -120,6 +121,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
             kernels.get(p.inflation, goal.1.atan2(goal.0)),
             params.passable_cost,
             &mut cost,
+            &mut scratch,
         );
         all[0].push(s.elapsed().as_secs_f64());
         t[0] += s.elapsed().as_secs_f64();

@@ -67,6 +67,7 @@ pub struct Planner {
     params: PlannerParams,
     kernels: KernelCache,
     cost: Vec<u8>,
+    inflate: inflate::Scratch,
     clear: Clearance,
     route: Route,
     /// The map with the cells under a rectangular body made free (see [`Planner::plan`]).
@@ -81,6 +82,7 @@ impl Planner {
             kernels: KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles),
             params,
             cost: Vec::new(),
+            inflate: inflate::Scratch::default(),
             clear: Clearance::default(),
             route: Route::default(),
             own: Vec::new(),
@@ -149,6 +151,7 @@ impl Planner {
             self.kernels.get(p.planner.inflation, goal.1.atan2(goal.0)),
             p.passable_cost,
             &mut self.cost,
+            &mut self.inflate,
         );
         // the rollouts reach max_v · horizon; obstacles matter up to the footprint beyond
         let reach = p.reach_m();
