@@ -92,6 +92,11 @@ pub struct VelodyneConfig {
     /// many packets at a time (the revolution's last slice holds what is left); 0: no slices,
     /// the mapper maps each revolution from `lidar/points` once it is whole.
     pub slice_packets: u32,
+    /// While the revolution's end is further away than this and a margin, the driver reads the
+    /// socket once every this many milliseconds — the datagrams wait in the kernel's buffer —
+    /// instead of waking for each one; near the end it wakes for each, so the revolution's last
+    /// packet is read as it arrives ([`crate::pace`]). 0: wake for each datagram.
+    pub pace_ms: f64,
     /// Interval of the statistics log line, seconds.
     pub stats_interval_s: f64,
 }
@@ -120,6 +125,7 @@ impl Default for VelodyneConfig {
             scan_return: ScanReturnSelect::Last,
             publish_packets: false,
             slice_packets: 4,
+            pace_ms: 5.0,
             stats_interval_s: 10.0,
         }
     }
@@ -158,6 +164,7 @@ impl VelodyneConfig {
             0.0,
             f64::from(MAX_SLICE_PACKETS),
         );
+        r.check("velodyne.pace_ms", self.pace_ms, 0.0, 20.0);
         r.check(
             "velodyne.stats_interval_s",
             self.stats_interval_s,

@@ -222,6 +222,11 @@ impl Driver {
         self.assembler.revolution()
     }
 
+    /// How far the current revolution has still to turn before it completes, 0.01°.
+    pub fn turn_left_cdeg(&self) -> u32 {
+        self.assembler.turn_left_cdeg()
+    }
+
     /// The points assembled since the last call, as `lidar/slices` samples of `packets` packets
     /// (see [`Assembler::take_slices`]); call it after every datagram and [`finish`](Self::finish).
     pub fn take_slices(&mut self, packets: u32, emit: impl FnMut(&SliceHeader, &[Point])) {

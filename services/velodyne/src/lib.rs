@@ -24,6 +24,7 @@ pub mod capture;
 pub mod config;
 pub mod decode;
 pub mod driver;
+pub mod pace;
 pub mod packet;
 pub mod replay;
 pub mod revolution;

@@ -145,6 +145,12 @@ impl TurnCutter {
         self.coverage = 0;
     }
 
+    /// How far the turn has still to go before it completes, 0.01° (a whole turn before its
+    /// first packet).
+    pub fn left_cdeg(&self) -> u32 {
+        (36000 - self.coverage).clamp(0, 36000) as u32
+    }
+
     /// The stream ended: the next packet starts afresh.
     pub fn reset(&mut self) {
         self.start = self.cut;
@@ -231,6 +237,12 @@ impl Assembler {
     /// The last revolution completed (by [`push`](Self::push) or [`finish`](Self::finish)).
     pub fn revolution(&self) -> &Revolution {
         &self.out
+    }
+
+    /// How far the current revolution has still to turn before it completes, 0.01°
+    /// ([`TurnCutter::left_cdeg`]).
+    pub fn turn_left_cdeg(&self) -> u32 {
+        self.cutter.left_cdeg()
     }
 
     /// Hands out the points assembled since the last call as slices, in order (called after

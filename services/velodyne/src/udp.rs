@@ -71,6 +71,8 @@ impl UdpSource {
             rejected: 0,
             last_rejected: None,
         };
+        // the first request turns the kernel's receive time stamps on for the socket
+        let _ = arrival_ns(source.data.as_raw_fd());
         let granted = source.recv_buffer_bytes().unwrap_or(0);
         if granted < config.recv_buffer_bytes {
             tracing::info!(
@@ -86,6 +88,20 @@ impl UdpSource {
             "listening for VLP-16 datagrams"
         );
         Ok(source)
+    }
+
+    /// How long the datagram last read from the data socket waited in the kernel, ns: from its
+    /// arrival (the kernel's time stamp, `SIOCGSTAMPNS`) to now, at most 1 s; 0 when the kernel
+    /// has no stamp for it. A revolution's latency is counted from its last packet's arrival,
+    /// so the time a datagram waits while the driver paces its reads ([`crate::pace`]) counts.
+    pub fn kernel_wait_ns(&self) -> u64 {
+        let Some(arrival) = arrival_ns(self.data.as_raw_fd()) else {
+            return 0;
+        };
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64);
+        now.saturating_sub(arrival).min(1_000_000_000)
     }
 
     /// The local address of the data socket (useful when bound to port 0).
@@ -314,6 +330,41 @@ mod tests {
         assert_eq!(drops_on_port(table, 9), None);
     }
 
+    /// A datagram read 30 ms after it arrived waited that long in the kernel (the driver's
+    /// paced reads count in the latency); one read at once waited far less.
+    #[test]
+    fn the_wait_in_the_kernel_is_read_from_its_time_stamp() {
+        let cfg = VelodyneConfig {
+            bind_address: IpAddr::from([127, 0, 0, 1]),
+            data_port: 0,
+            recv_buffer_bytes: 1 << 16,
+            ..VelodyneConfig::default()
+        };
+        let mut src = UdpSource::bind_ports(&cfg, None).expect("bind");
+        let to = src.data_addr().expect("addr");
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("sender");
+        let mut buf = [0u8; 64];
+        let mut read = |src: &mut UdpSource| {
+            for _ in 0..200 {
+                if let Ok(Some(_)) = src.recv(&mut buf, &mut |_| {}) {
+                    return src.kernel_wait_ns();
+                }
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            panic!("no datagram");
+        };
+        tx.send_to(b"late", to).expect("send");
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        let late = read(&mut src);
+        assert!(
+            (30_000_000..1_000_000_000).contains(&late),
+            "waited {late} ns"
+        );
+        tx.send_to(b"prompt", to).expect("send");
+        let prompt = read(&mut src);
+        assert!(prompt < late, "waited {prompt} ns, the late one {late} ns");
+    }
+
     #[test]
     fn receives_on_both_ports_and_filters_the_sender() {
         let cfg = VelodyneConfig {
@@ -353,4 +404,20 @@ mod tests {
             assert_eq!(foreign, from.into_iter().collect::<Vec<_>>());
         }
     }
+}
+
+/// `SIOCGSTAMPNS` (asm-generic/sockios.h; the native `timespec` on 64-bit Linux): the receive
+/// time stamp of the last datagram read from a socket.
+const SIOCGSTAMPNS: libc::c_ulong = 0x8907;
+
+/// When the kernel received the datagram last read from `fd` (CLOCK_REALTIME, ns).
+fn arrival_ns(fd: RawFd) -> Option<u64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec the call writes; `fd` is an open socket of ours.
+    let r = unsafe { libc::ioctl(fd, SIOCGSTAMPNS as _, &mut ts) };
+    (r == 0 && ts.tv_sec >= 0 && ts.tv_nsec >= 0)
+        .then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
 }

@@ -18,8 +18,9 @@ use mimnav_shared::service::{self, Service, ServiceCli, SocketFd};
 use mimnav_shared::topics;
 use mimnav_velodyne::config::VelodyneInput;
 use mimnav_velodyne::driver::Driver;
+use mimnav_velodyne::pace::Pace;
 use mimnav_velodyne::revolution::{AssemblerConfig, max_scan_len, max_slice_points};
-use mimnav_velodyne::udp::UdpSource;
+use mimnav_velodyne::udp::{Port, UdpSource};
 
 /// The VLP-16 driver: decodes a live sensor (UDP) or replays a capture, and publishes
 /// revolutions on lidar/points and lidar/scan2d.
@@ -114,6 +115,8 @@ fn run(config: &Config) -> Result<()> {
         .collect();
     let (_sockets, _tick) = (svc.on_fds(&fds)?, svc.every(interval)?);
     let (mut buf, mut last_datagram) = (vec![0u8; 2048], Instant::now());
+    // far from the revolution's end, the socket is read every velodyne.pace_ms, not per datagram
+    let mut pace = Pace::new(v.pace_ms, v.rpm);
     let addr = source
         .data_addr()
         .map(|a| a.to_string())
@@ -128,7 +131,12 @@ fn run(config: &Config) -> Result<()> {
                 Ok(Some(r)) => {
                     last_datagram = turn.now;
                     let from = || format!("datagram from {}", r.from);
-                    wired.push(&buf[..r.len], r.port.into(), ipc::realtime_ns(), h, &from);
+                    let waited = match r.port {
+                        Port::Data => source.kernel_wait_ns(),
+                        Port::Position => 0,
+                    };
+                    let (kind, host_ns) = ((r.port.into(), waited), ipc::realtime_ns());
+                    wired.push(&buf[..r.len], kind, host_ns, h, &from);
                 }
                 Ok(None) => break,
                 Err(e) => {
@@ -151,6 +159,9 @@ fn run(config: &Config) -> Result<()> {
             Duration::from_secs(1),
             "no VLP-16 datagram",
         );
+        if let Some(pause) = pace.pause(Instant::now(), wired.0.turn_left_cdeg()) {
+            std::thread::sleep(pause);
+        }
     })?;
     // the foreign senders' count and the last one's address are in the summary
     wired.0.set_kernel_drops(source.kernel_drops());

@@ -24,17 +24,22 @@ pub struct Wired(
 );
 
 impl Wired {
-    /// One datagram through the driver; the revolution it finishes is published. With `bytes`
-    /// empty: the partial revolution at the end of a capture.
+    /// One datagram through the driver, which waited `waited_ns` in the kernel before it was
+    /// read; the revolution it finishes is published. With `bytes` empty: the partial
+    /// revolution at the end of a capture.
     pub fn push(
         &mut self,
         bytes: &[u8],
-        kind: Kind,
+        (kind, waited_ns): (Kind, u64),
         host_ns: u64,
         h: &mut Health,
         source: &dyn Fn() -> String,
     ) {
-        let (now, mono) = (Instant::now(), ipc::monotonic_ns());
+        // received when it arrived: the revolution's latency counts from there
+        let (now, mono) = (
+            Instant::now(),
+            ipc::monotonic_ns().saturating_sub(waited_ns),
+        );
         let Wired(driver, points, scan, packets, slices) = self;
         if let Some(raw) = packets
             .as_ref()
@@ -104,7 +109,7 @@ pub fn replay(
                 }
                 let kind = wired.0.kind(d.payload.len(), d.dst_port);
                 let at = || format!("{} byte offset {}", path.display(), d.offset);
-                wired.push(d.payload, kind, d.ts_ns, h, &at);
+                wired.push(d.payload, (kind, 0), d.ts_ns, h, &at);
                 if let Some(status) =
                     wired
                         .0
@@ -124,7 +129,7 @@ pub fn replay(
             // the partial revolution at the end of the capture
             Next::PassEnded => {
                 in_pass = 0;
-                wired.push(&[], Kind::Data, 0, h, &String::new);
+                wired.push(&[], (Kind::Data, 0), 0, h, &String::new);
             }
             Next::Finished => break false,
         }
@@ -132,7 +137,7 @@ pub fn replay(
             break true;
         }
     };
-    wired.push(&[], Kind::Data, 0, h, &String::new);
+    wired.push(&[], (Kind::Data, 0), 0, h, &String::new);
     let what = if stopped {
         "replay stopped by signal"
     } else {
