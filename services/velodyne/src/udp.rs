@@ -283,6 +283,22 @@ fn set_recv_buffer(socket: &UdpSocket, bytes: usize) -> io::Result<()> {
     }
 }
 
+/// `SIOCGSTAMPNS` (asm-generic/sockios.h; the native `timespec` on 64-bit Linux): the receive
+/// time stamp of the last datagram read from a socket.
+const SIOCGSTAMPNS: libc::c_ulong = 0x8907;
+
+/// When the kernel received the datagram last read from `fd` (CLOCK_REALTIME, ns).
+fn arrival_ns(fd: RawFd) -> Option<u64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec the call writes; `fd` is an open socket of ours.
+    let r = unsafe { libc::ioctl(fd, SIOCGSTAMPNS as _, &mut ts) };
+    (r == 0 && ts.tv_sec >= 0 && ts.tv_nsec >= 0)
+        .then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -404,20 +420,4 @@ mod tests {
             assert_eq!(foreign, from.into_iter().collect::<Vec<_>>());
         }
     }
-}
-
-/// `SIOCGSTAMPNS` (asm-generic/sockios.h; the native `timespec` on 64-bit Linux): the receive
-/// time stamp of the last datagram read from a socket.
-const SIOCGSTAMPNS: libc::c_ulong = 0x8907;
-
-/// When the kernel received the datagram last read from `fd` (CLOCK_REALTIME, ns).
-fn arrival_ns(fd: RawFd) -> Option<u64> {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid timespec the call writes; `fd` is an open socket of ours.
-    let r = unsafe { libc::ioctl(fd, SIOCGSTAMPNS as _, &mut ts) };
-    (r == 0 && ts.tv_sec >= 0 && ts.tv_nsec >= 0)
-        .then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
 }
