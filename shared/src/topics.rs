@@ -103,7 +103,8 @@ pub struct PointsHeader {
     pub seq: u64,
     /// Sensor time of the revolution's first firing, ns since the Unix epoch.
     pub stamp_ns: u64,
-    /// `CLOCK_MONOTONIC` when the revolution's last packet was received (or replayed), ns.
+    /// `CLOCK_MONOTONIC` when the revolution's last packet arrived in the host's kernel (or was
+    /// replayed), ns.
     pub rx_mono_ns: u64,
     /// Sequence number (data packets since start) of the revolution's first packet.
     pub first_packet_seq: u64,
