@@ -395,6 +395,19 @@ where
         })
     }
 
+    /// Like [`publish_from_iter`](Self::publish_from_iter), element `i` being `item(i)`, for
+    /// `i` in `0..len`: with the sources indexed directly (sliced to `len` first) the compiler
+    /// vectorises the fill, where an iterator is stepped one element at a time (the 40 000
+    /// cells of `map/plan`: 2–6 µs instead of 25–50 µs).
+    pub fn publish_from_fn(
+        &self,
+        header: H,
+        len: usize,
+        item: impl FnMut(usize) -> T,
+    ) -> Result<usize, IpcError> {
+        self.send_loaned(header, len, |sample| sample.write_from_fn(item))
+    }
+
     fn send_loaned(
         &self,
         header: H,
@@ -992,6 +1005,12 @@ mod tests {
         let sample = sub.receive().expect("receive").expect("a sample");
         assert_eq!(sample.user_header().seq, 3);
         assert_eq!(sample.payload(), &[0.0, 1.5, 3.0, 4.5, 0.0, 0.0]);
+        drop(sample);
+        // element by element from its index
+        publ.publish_from_fn(header, 5, |i| i as f32 * 2.0)
+            .expect("publish");
+        let sample = sub.receive().expect("receive").expect("a sample");
+        assert_eq!(sample.payload(), &[0.0, 2.0, 4.0, 6.0, 8.0]);
     }
 
     /// Every file of the domain — its segments in /dev/shm and the files under its root path —

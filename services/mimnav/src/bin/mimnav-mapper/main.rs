@@ -198,11 +198,14 @@ impl Output {
         let us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
         mapped.header.processing_us = us;
         let (classes, cost) = (step.mapper().classes(), step.mapper().cost());
-        let plan = (classes.iter().zip(cost)).map(|(&class, &cost)| PlanCell { class, cost });
-        if let Err(e) = self
-            .plan_pub
-            .publish_from_iter(mapped.header, classes.len(), plan)
-        {
+        // indexed, not iterated: the fill is vectorised (the planner waits for it)
+        let n = classes.len().min(cost.len());
+        let (classes, cost) = (&classes[..n], &cost[..n]);
+        let plan = |i: usize| PlanCell {
+            class: classes[i],
+            cost: cost[i],
+        };
+        if let Err(e) = self.plan_pub.publish_from_fn(mapped.header, n, plan) {
             h.faults.record("publish_failed", at, e);
         }
         let plan_sent = ipc::monotonic_ns();
