@@ -66,9 +66,10 @@ pub struct DemoArgs {
     /// `debug` shows each revolution's timing per hop.
     #[arg(long, value_name = "FILTER", default_value = "warn")]
     log: String,
-    /// The SCHED_FIFO priority of the driver, mapper, foliage classifier and planner
-    /// (`latency.realtime_priority`; 0: the normal scheduler). Without the right to use it
-    /// (root, CAP_SYS_NICE or RLIMIT_RTPRIO), each service warns and runs normally.
+    /// The SCHED_FIFO priority of the driver (`latency.realtime_priority`; 0: the normal
+    /// scheduler); the planner, mapper, foliage classifier and simulator run 1, 2, 3 and 4 below.
+    /// Without the right to use it (root, CAP_SYS_NICE or RLIMIT_RTPRIO), each service warns
+    /// and runs normally.
     #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(i32).range(0..=99))]
     realtime_priority: i32,
     /// The robot's base: `ideal` (the simulator follows cmd_vel and publishes odom) or

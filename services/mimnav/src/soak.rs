@@ -60,8 +60,8 @@ pub struct SoakArgs {
     /// The services' log filter (`log.level`); their messages come to this terminal's stderr.
     #[arg(long, value_name = "FILTER", default_value = "warn")]
     log: String,
-    /// The SCHED_FIFO priority of the services (`latency.realtime_priority`; 0: the normal
-    /// scheduler).
+    /// The SCHED_FIFO priority of the driver (`latency.realtime_priority`; 0: the normal
+    /// scheduler); the other processes run lower by their place on the path.
     #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(i32).range(0..=99))]
     realtime_priority: i32,
     /// Print the report as one JSON object as well.

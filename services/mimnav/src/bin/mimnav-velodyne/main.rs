@@ -135,7 +135,10 @@ fn run(config: &Config) -> Result<()> {
                         Port::Data => source.kernel_wait_ns(),
                         Port::Position => 0,
                     };
-                    let (kind, host_ns) = ((r.port.into(), waited), ipc::realtime_ns());
+                    // stamped with its arrival: a paced or late read moves no time stamp (a
+                    // revolution spanning more than velodyne.rpm allows is cut by host time)
+                    let host_ns = ipc::realtime_ns().saturating_sub(waited);
+                    let kind = (r.port.into(), waited);
                     wired.push(&buf[..r.len], kind, host_ns, h, &from);
                 }
                 Ok(None) => break,
