@@ -214,13 +214,13 @@ pub struct Mapper {
     touched: Vec<u32>,
     /// Per cell: [`UNTOUCHED`], [`TOUCHED`] or [`SETTLED`] in this revolution.
     state: Vec<u8>,
-    /// Per cell with returns: its class by its own evidence ([`Mapper::classify_cell`]), with
+    /// Per cell with returns: its class by its own evidence ([`Mapper::settle_cell`]), with
     /// [`TALL_BIT`]; [`NO_HIT_CLASS`] without returns. Valid where `state` is [`SETTLED`].
     hit_class: Vec<u8>,
     /// `touched[..settled]` have been settled (classified as the slices arrived).
     settled: usize,
-    /// `touched.len()` at the end of each slice binned so far.
-    slice_ends: Vec<usize>,
+    /// `touched.len()` at the end of the previous slice.
+    slice_end: usize,
     /// Settled cells written again since: classified anew at the revolution's end.
     redo: Vec<u32>,
     /// Glass detected in this revolution (cell indices, sorted, unique).
@@ -292,10 +292,6 @@ const SETTLED: u8 = 2;
 const NO_HIT_CLASS: u8 = u8::MAX;
 /// [`Mapper::hit_class`]'s flag of a tall cell (a return above `tall_m`, no beam through).
 const TALL_BIT: u8 = 0x80;
-/// A cell first written before the end of the slice this many slices back is settled after
-/// each slice: the sweep has moved on from most of them, and the few it comes back to (cells
-/// near the sensor span several slices' azimuths) are classified anew at the end (`redo`).
-const SETTLE_LAG: usize = 1;
 
 /// A weak echo at most this far behind a bright echo of the same firing is the inside of the
 /// same object (a dense bush returns its front brightly and a trace from within), m.
@@ -356,7 +352,7 @@ impl Mapper {
             state: vec![UNTOUCHED; n2],
             hit_class: vec![NO_HIT_CLASS; n2],
             settled: 0,
-            slice_ends: Vec::new(),
+            slice_end: 0,
             redo: Vec::new(),
             glass_cells: Vec::new(),
             reach: vec![0.0; REACH_BINS],
@@ -483,16 +479,11 @@ impl Mapper {
         if self.params.mapper.surface_min_returns > 0 {
             self.count_windows(false);
         }
-        // the cells the sweep has left behind: classified now, not after the last packet
-        self.slice_ends.push(self.touched.len());
-        if let Some(&upto) = self
-            .slice_ends
-            .len()
-            .checked_sub(1 + SETTLE_LAG)
-            .and_then(|k| self.slice_ends.get(k))
-        {
-            self.settle(upto);
-        }
+        // the cells the sweep has left behind — first written before the previous slice
+        // ended — classified now, not after the last packet; the few it comes back to (cells
+        // near the sensor span several slices' azimuths) are classified anew at the end (`redo`)
+        let upto = std::mem::replace(&mut self.slice_end, self.touched.len());
+        self.settle(upto);
     }
 
     /// Ends the revolution begun by [`begin`](Self::begin): glass, classes, memories and cost
@@ -568,7 +559,7 @@ impl Mapper {
         self.touched.clear();
         self.redo.clear();
         self.tall_cells.clear();
-        self.slice_ends.clear();
+        self.slice_end = 0;
         self.settled = 0;
         self.reach.fill(0.0);
         for r in &mut self.rings {
