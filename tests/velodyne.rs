@@ -3,7 +3,7 @@ use std::net::{Ipv4Addr, UdpSocket};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use mimnav_shared::ipc::PrivateDomain;
 use mimnav_shared::topics::cut_reason;
@@ -147,17 +147,27 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
         ),
         "driver ready: {seen:#?}"
     );
-    // the sensor's side: a thread sends the capture at about real time (a slice topic keeps
-    // only the newest revolutions for a subscriber that falls behind)
+    // the sensor's side: a thread sends the capture at its own pace (a slice topic keeps only
+    // the newest revolutions for a subscriber that falls behind). Each datagram is due at its
+    // capture time from the first, so a late wake-up (SCHED_FIFO services of other tests share
+    // CI's two cores) is caught up at once instead of adding up over a revolution: ten 10 ms
+    // sleeps that each overslept 5 ms had stretched one past the driver's 150 ms limit.
     let capture = data.join("vlp16_dual_nebula.pcap");
     let sender = std::thread::spawn(move || {
         let mut reader = CaptureReader::open(&capture).expect("capture");
         let tx = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("sender");
         let to = (Ipv4Addr::LOCALHOST, port);
+        let start = Instant::now();
+        let mut first_ns = None;
         let mut n = 0usize;
         while let Some(d) = reader.next().expect("capture reads") {
             if d.payload.len() != 1206 {
                 continue;
+            }
+            let due = Duration::from_nanos(d.ts_ns.saturating_sub(*first_ns.get_or_insert(d.ts_ns)));
+            let ahead = due.saturating_sub(start.elapsed());
+            if ahead >= Duration::from_millis(2) {
+                std::thread::sleep(ahead);
             }
             tx.send_to(d.payload, to).expect("send");
             n += 1;
@@ -167,9 +177,6 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
                 let mut bad = d.payload.to_vec();
                 bad[300] = 0x12; // block 3's flag
                 tx.send_to(&bad, to).expect("send bad flag");
-            }
-            if n.is_multiple_of(15) {
-                std::thread::sleep(Duration::from_millis(10));
             }
         }
     });

@@ -125,7 +125,7 @@ impl Default for VelodyneConfig {
             scan_return: ScanReturnSelect::Last,
             publish_packets: false,
             slice_packets: 4,
-            pace_ms: 0.0,
+            pace_ms: 5.0,
             stats_interval_s: 10.0,
         }
     }
