@@ -4,6 +4,10 @@
 //! inflations, and Spot (a rectangular body) with adaptive inflation.
 //!
 //! `cargo bench -p mimnav-planner --bench plan`
+//!
+//! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
+//! speed-up must leave them the same) — short enough to count instructions under
+//! `valgrind --tool=callgrind`.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -71,6 +75,18 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     params.planner.inflation = inflation;
     let mut planner = Planner::new(params);
     let grid = config.map.grid();
+    if std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest") {
+        // FNV-1a over every outcome's debug text: any change of a speed, a turn or a score shows
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for (classes, v, w, goal) in maps {
+            let out = planner.plan(classes, grid, *v, *w, *goal);
+            for b in format!("{out:?}").bytes() {
+                h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+            }
+        }
+        println!("{name}, {inflation:?} inflation: digest {h:016x} over {} maps", maps.len());
+        return;
+    }
     let mut times = Vec::new();
     let start = Instant::now();
     while start.elapsed().as_secs_f64() < 3.0 {
@@ -96,6 +112,9 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
 
 /// Where the time goes: each stage alone, mean µs per map.
 fn breakdown(config: &Config, maps: &[Case]) {
+    if std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest") {
+        return;
+    }
     use mimnav_planner::dwa;
     use mimnav_planner::inflate::{KernelCache, plan_cost};
     use mimnav_planner::route::Route;
