@@ -164,7 +164,8 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
             if d.payload.len() != 1206 {
                 continue;
             }
-            let due = Duration::from_nanos(d.ts_ns.saturating_sub(*first_ns.get_or_insert(d.ts_ns)));
+            let due =
+                Duration::from_nanos(d.ts_ns.saturating_sub(*first_ns.get_or_insert(d.ts_ns)));
             let ahead = due.saturating_sub(start.elapsed());
             if ahead >= Duration::from_millis(2) {
                 std::thread::sleep(ahead);

@@ -7,7 +7,14 @@
 //!
 //! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
 //! speed-up must leave them the same) — short enough to count instructions under
-//! `valgrind --tool=callgrind`.
+//! `valgrind --tool=callgrind`. With `PLAN_BENCH_MAPS=DIR` the maps are kept in DIR after the
+//! first run and read back after, so a run under callgrind simulates nothing:
+//!
+//! ```sh
+//! PLAN_BENCH=digest PLAN_BENCH_MAPS=$PWD/target/plan-maps cargo bench -p mimnav-planner --bench plan
+//! PLAN_BENCH=digest PLAN_BENCH_MAPS=$PWD/target/plan-maps valgrind --tool=callgrind \
+//!     --collect-atstart=no '--toggle-collect=*Planner*plan_in*' target/release/deps/plan-HASH --bench
+//! ```
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -70,6 +77,51 @@ fn maps(config: &Config, world: &str) -> Vec<Case> {
     out
 }
 
+/// The maps of `world` for `robot` from `PLAN_BENCH_MAPS`'s directory, made and kept there
+/// when it does not hold them (or when the variable is unset, just made). Each case: the
+/// robot's speed, turn rate, goal x and y (f64, little-endian), the cell count (u64), the
+/// cells.
+fn kept(world: &str, robot: &str, make: impl FnOnce() -> Vec<Case>) -> Vec<Case> {
+    let Some(dir) = std::env::var_os("PLAN_BENCH_MAPS").map(PathBuf::from) else {
+        return make();
+    };
+    let path = dir.join(format!("{world}.{robot}.maps"));
+    if let Ok(bytes) = std::fs::read(&path) {
+        let mut out = Vec::new();
+        let mut rest = &bytes[..];
+        let f = |b: &[u8], i: usize| {
+            f64::from_le_bytes(b[i * 8..i * 8 + 8].try_into().unwrap_or([0; 8]))
+        };
+        while rest.len() >= 40 {
+            let n = u64::from_le_bytes(rest[32..40].try_into().unwrap_or([0; 8])) as usize;
+            if rest.len() < 40 + n {
+                break;
+            }
+            out.push((
+                rest[40..40 + n].to_vec(),
+                f(rest, 0),
+                f(rest, 1),
+                (f(rest, 2), f(rest, 3)),
+            ));
+            rest = &rest[40 + n..];
+        }
+        return out;
+    }
+    let maps = make();
+    let mut bytes = Vec::new();
+    for (classes, v, w, goal) in &maps {
+        for x in [*v, *w, goal.0, goal.1] {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        bytes.extend_from_slice(&(classes.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(classes);
+    }
+    if let Err(e) = std::fs::create_dir_all(&dir).and_then(|()| std::fs::write(&path, bytes)) {
+        eprintln!("cannot keep the maps in {}: {e}", path.display());
+    }
+    maps
+}
+
 fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     let mut params = config.planner_params();
     params.planner.inflation = inflation;
@@ -84,7 +136,10 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
                 h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
             }
         }
-        println!("{name}, {inflation:?} inflation: digest {h:016x} over {} maps", maps.len());
+        println!(
+            "{name}, {inflation:?} inflation: digest {h:016x} over {} maps",
+            maps.len()
+        );
         return;
     }
     let mut times = Vec::new();
@@ -204,7 +259,7 @@ fn main() {
         "scenario1_glass_wall.toml",
         "scenario4_grass_intertwined.toml",
     ] {
-        let maps = maps(&config, world);
+        let maps = kept(world, "turtlebot2", || maps(&config, world));
         for inflation in [Inflation::Adaptive, Inflation::Uniform] {
             time(world, &config, inflation, &maps);
         }
@@ -223,7 +278,7 @@ fn main() {
         "scenario1_glass_wall.toml",
         "scenario4_grass_intertwined.toml",
     ] {
-        let maps = maps(&spot, world);
+        let maps = kept(world, "spot", || maps(&spot, world));
         time(&format!("{world}, Spot"), &spot, Inflation::Adaptive, &maps);
         breakdown(&spot, &maps);
     }

@@ -373,7 +373,12 @@ impl Route {
         }
         // every queued length lies within the seeds' spread or one move of the current bucket
         let span = (hi - lo).max(longest * dearest);
-        let n = ((span * inv).ceil() as usize).saturating_add(3).min(1 << 20);
+        // a power of two, so a bucket's slot is a mask and not a division
+        let n = ((span * inv).ceil() as usize)
+            .saturating_add(3)
+            .min(1 << 20)
+            .next_power_of_two();
+        let mask = n - 1;
         if self.buckets.len() < n {
             self.buckets.resize_with(n, Vec::new);
         }
@@ -383,16 +388,19 @@ impl Route {
         }
         self.done.clear();
         self.done.resize(self.dist.len(), false);
-        let (dist, done, step, padded) = (&mut self.dist, &mut self.done, &self.step, &self.padded);
-        let (wanted_cells, seeded) = (&mut self.wanted, &self.seeded);
+        // slices, not the vectors: a push into a bucket then cannot move them, and their
+        // pointers stay in registers
+        let (dist, done) = (&mut self.dist[..], &mut self.done[..]);
+        let (step, padded) = (&self.step[..], &self.padded[..]);
+        let (wanted_cells, seeded) = (&mut self.wanted[..], &self.seeded[..]);
         let mut queued = 0usize;
         for &(k, d) in seeded {
-            buckets[(d * inv) as usize % n].push(k);
+            buckets[(d * inv) as usize & mask].push(k);
             queued += 1;
         }
         let mut cur = (lo * inv) as usize;
         while queued > 0 {
-            let mut list = std::mem::take(&mut buckets[cur % n]);
+            let mut list = std::mem::take(&mut buckets[cur & mask]);
             queued -= list.len();
             for &k in &list {
                 let k = k as usize;
@@ -423,13 +431,13 @@ impl Route {
                         dist[kk] = nd;
                         // later than this bucket by construction; the max guards rounding
                         let b = ((nd * inv) as usize).clamp(cur + 1, cur + n - 1);
-                        buckets[b % n].push(kk as u32);
+                        buckets[b & mask].push(kk as u32);
                         queued += 1;
                     }
                 }
             }
             list.clear();
-            buckets[cur % n] = list;
+            buckets[cur & mask] = list;
             cur += 1;
         }
     }
@@ -457,7 +465,10 @@ impl Route {
         if !(u > -1.0 && v > -1.0 && u < n as f32 && v < n as f32) {
             return f32::INFINITY;
         }
-        let (r0, c0) = (u.floor() as i32, v.floor() as i32);
+        // floor without a call into libm (half the cost of this function): past the test
+        // above, u and v are above −1, where truncation is the floor but for (−1, 0)
+        let floor = |a: f32| if a < 0.0 { -1 } else { a as i32 };
+        let (r0, c0) = (floor(u), floor(v));
         let (fu, fv) = (u - r0 as f32, v - c0 as f32);
         if r0 >= 0 && c0 >= 0 && r0 + 1 < n && c0 + 1 < n {
             // inside: no clamping (the common case, every rollout step)
@@ -657,7 +668,7 @@ mod tests {
         /// beyond it.
         #[test]
         fn the_bucket_queue_gives_the_heaps_lengths(
-            cells in proptest::collection::vec(0u8..8, 3600),
+            cells in proptest::collection::vec(0u8..16, 3600),
             costs in proptest::collection::vec(0u8..=255, 3600),
             goal in (-6.0f32..6.0, -6.0f32..6.0),
             weights in (0.0f32..3.0, 0.0f32..0.6, 0.0f32..2.0, 0.0f32..4.0),
@@ -693,7 +704,8 @@ mod tests {
                 goal,
             );
             let want = heap_lengths(&route);
-            proptest::prop_assert!(want.iter().any(|d| d.is_finite()));
+            // (a map closed everywhere proves nothing)
+            proptest::prop_assume!(want.iter().any(|d| d.is_finite()));
             let same = want.iter().zip(&route.dist).all(|(a, b)| a.to_bits() == b.to_bits());
             proptest::prop_assert!(same, "lengths differ from the heap's");
         }
