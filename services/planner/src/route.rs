@@ -7,9 +7,9 @@
 //! classic global dynamic window of Brock and Khatib) keeps the dynamic window and its footprint
 //! test for safety and lets the robot drive around.
 //!
-//! The route is a Dijkstra search on a coarse grid (`cell_m`, a few map cells) over 16
-//! neighbours (straight, diagonal and knight moves, so route lengths are within 3 % of the
-//! Euclidean ones and the DWA has no reason to zig-zag). A coarse cell can be crossed when it
+//! The route is a Dijkstra search (a bucket queue: exact, see `Route::search`) on a coarse grid
+//! (`cell_m`, a few map cells) over 16 neighbours (straight, diagonal and knight moves, so route
+//! lengths are within 3 % of the Euclidean ones and the DWA has no reason to zig-zag). A coarse cell can be crossed when it
 //! holds no solid or glass map cell and its centre is within half a coarse cell of the clearance
 //! the footprint needs (a chamfer transform on the coarse grid) — an optimistic test, so a door
 //! the footprint fits through is never closed here; the DWA's footprint test stays the safety
