@@ -408,6 +408,25 @@ where
         self.send_loaned(header, len, |sample| sample.write_from_fn(item))
     }
 
+    /// Like [`publish`](Self::publish), the `len` elements written by `fill` straight into the
+    /// shared-memory sample (set to `T::default()` first): for a source that fills a slice
+    /// faster than it yields elements in order (`map/layers`, a layer at a time).
+    pub fn publish_filled(
+        &self,
+        header: H,
+        len: usize,
+        fill: impl FnOnce(&mut [T]),
+    ) -> Result<usize, IpcError>
+    where
+        T: Default,
+    {
+        self.send_loaned(header, len, |sample| {
+            let mut sample = sample.write_from_fn(|_| T::default());
+            fill(sample.payload_mut());
+            sample
+        })
+    }
+
     fn send_loaned(
         &self,
         header: H,
@@ -1011,6 +1030,12 @@ mod tests {
             .expect("publish");
         let sample = sub.receive().expect("receive").expect("a sample");
         assert_eq!(sample.payload(), &[0.0, 2.0, 4.0, 6.0, 8.0]);
+        drop(sample);
+        // filled as a slice: what the closure leaves is the default
+        publ.publish_filled(header, 4, |out| out[1..3].copy_from_slice(&[7.0, 8.0]))
+            .expect("publish");
+        let sample = sub.receive().expect("receive").expect("a sample");
+        assert_eq!(sample.payload(), &[0.0, 7.0, 8.0, 0.0]);
     }
 
     /// Every file of the domain — its segments in /dev/shm and the files under its root path —

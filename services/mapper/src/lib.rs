@@ -415,6 +415,21 @@ impl Mapper {
         (0..self.bounds.len()).flat_map(move |j| (0..n2).map(move |i| self.layer_value(j, i)))
     }
 
+    /// [`Mapper::layers`] written into `out` (its first layers × cells elements; the rest is
+    /// left as it is), one layer at a time: a plain loop per layer where the iterator is stepped
+    /// one element at a time (the mapper publishes 160 000 values a revolution).
+    pub fn write_layers(&self, out: &mut [f32]) {
+        let (n2, nb) = (self.params.grid.len(), self.bounds.len());
+        if nb == 0 || n2 == 0 {
+            return;
+        }
+        for (j, dst) in out.chunks_exact_mut(n2).take(nb).enumerate() {
+            for (o, cell) in dst.iter_mut().zip(self.layer.chunks_exact(nb)) {
+                *o = cell[j].sum * self.layer_scale;
+            }
+        }
+    }
+
     /// Layer j of cell i as the paper's I_j (eq. 1): Σ (intensity / R) / g².
     #[inline]
     fn layer_value(&self, j: usize, i: usize) -> f32 {

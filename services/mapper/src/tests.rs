@@ -69,6 +69,10 @@ fn equation_1_sums_normalised_intensity_over_the_cell_area() {
     assert_eq!(all.len(), m.layer_count() * g.len());
     assert_eq!(&all[above * g.len()..(above + 1) * g.len()], &v[..]);
     assert_eq!(all.iter().filter(|&&x| x > 0.0).count(), 1);
+    // the service writes them into the sample a layer at a time: the same values
+    let mut written = vec![-1.0; all.len()];
+    m.write_layers(&mut written);
+    assert_eq!(written, all);
 }
 
 #[test]

@@ -211,10 +211,10 @@ impl Output {
         let plan_sent = ipc::monotonic_ns();
         let plan_sent_us = plan_sent.saturating_sub(rx) / 1000;
         self.lat.push(rx, now, u64::from(us), plan_sent);
-        let layers = step.mapper().layers();
+        let mapper = step.mapper();
         if let Err(e) = self
             .layers_pub
-            .publish_from_iter(mapped.header, self.len, layers)
+            .publish_filled(mapped.header, self.len, |out| mapper.write_layers(out))
         {
             h.faults.record("publish_failed", at, e);
         }
