@@ -432,7 +432,7 @@ impl Route {
                     let nd = d + len * step[kk];
                     if nd < dist[kk] {
                         dist[kk] = nd;
-                        // later than this bucket by construction; the max guards rounding
+                        // later than this bucket by construction; the clamp guards rounding
                         let b = ((nd * inv) as usize).clamp(cur + 1, cur + n - 1);
                         buckets[b & mask].push(kk as u32);
                         queued += 1;
