@@ -9,6 +9,7 @@ use mimnav_shared::ipc::PrivateDomain;
 use mimnav_shared::topics::cut_reason;
 use mimnav_velodyne::capture::{CaptureReader, PcapDatagramWriter};
 use mimnav_velodyne::packet::{BLOCKS, CHANNELS, encode_data_packet};
+use mimnav_velodyne::replay::Pacer;
 
 use crate::util::{
     PointsTap, Proc, bin, free_udp_port, lines_of, reference_counts, shipped_config, velodyne_data,
@@ -147,26 +148,25 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
         ),
         "driver ready: {seen:#?}"
     );
-    // the sensor's side: a thread sends the capture at its own pace (a slice topic keeps only
-    // the newest revolutions for a subscriber that falls behind). Each datagram is due at its
-    // capture time from the first, so a late wake-up (SCHED_FIFO services of other tests share
-    // CI's two cores) is caught up at once instead of adding up over a revolution: ten 10 ms
-    // sleeps that each overslept 5 ms had stretched one past the driver's 150 ms limit.
+    // the sensor's side: a thread sends the capture at its own pace, as `velodyne.input =
+    // "pcap"` replays it (a slice topic keeps only the newest revolutions for a subscriber that
+    // falls behind). Each datagram is due at its capture time from the first, so a late wake-up
+    // (SCHED_FIFO services of other tests share CI's two cores) is caught up at once instead of
+    // adding up over a revolution: ten 10 ms sleeps that each overslept had stretched one past
+    // the driver's 150 ms limit.
     let capture = data.join("vlp16_dual_nebula.pcap");
     let sender = std::thread::spawn(move || {
         let mut reader = CaptureReader::open(&capture).expect("capture");
         let tx = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("sender");
         let to = (Ipv4Addr::LOCALHOST, port);
-        let start = Instant::now();
-        let mut first_ns = None;
+        let mut pacer = Pacer::new(Some(1.0), 1_000_000_000);
         let mut n = 0usize;
         while let Some(d) = reader.next().expect("capture reads") {
             if d.payload.len() != 1206 {
                 continue;
             }
-            let due =
-                Duration::from_nanos(d.ts_ns.saturating_sub(*first_ns.get_or_insert(d.ts_ns)));
-            let ahead = due.saturating_sub(start.elapsed());
+            let now = Instant::now();
+            let ahead = pacer.due(d.ts_ns, now).saturating_duration_since(now);
             if ahead >= Duration::from_millis(2) {
                 std::thread::sleep(ahead);
             }

@@ -52,7 +52,7 @@ mod view;
 mod zenoh;
 
 use std::ops::{Deref, DerefMut};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
@@ -171,6 +171,21 @@ impl Config {
                 Config::load(Path::new(DEFAULT_CONFIG_PATH), overrides)
             }
             None => Config::from_toml("", Path::new("built-in defaults"), overrides),
+        }
+    }
+
+    /// The file the `mimnav` front end reads, which it also hands to the processes it starts:
+    /// the one given (`--config` or `MIMNAV_CONFIG`); else [`DEFAULT_CONFIG_PATH`] if it exists;
+    /// else `config/mimnav.toml` in the current folder if it exists (a checkout); else none, the
+    /// built-in defaults.
+    pub fn front_end_path(explicit: Option<&Path>) -> Option<PathBuf> {
+        let etc = Path::new(DEFAULT_CONFIG_PATH);
+        let local = Path::new("config/mimnav.toml");
+        match explicit {
+            Some(p) => Some(p.to_path_buf()),
+            None if etc.exists() => Some(etc.to_path_buf()),
+            None if local.exists() => Some(local.to_path_buf()),
+            None => None,
         }
     }
 

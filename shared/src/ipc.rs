@@ -377,28 +377,11 @@ where
         self.send_loaned(header, items.len(), |sample| sample.write_from_slice(items))
     }
 
-    /// Like [`publish`](Self::publish), but the `len` elements come from `items`, written
-    /// straight into the shared-memory sample: no buffer in between, no copy. Should `items` end
-    /// early, the rest is `T::default()`.
-    pub fn publish_from_iter(
-        &self,
-        header: H,
-        len: usize,
-        mut items: impl Iterator<Item = T>,
-    ) -> Result<usize, IpcError>
-    where
-        T: Default,
-    {
-        // write_from_fn fills the slice front to back, one call per element
-        self.send_loaned(header, len, |sample| {
-            sample.write_from_fn(|_| items.next().unwrap_or_default())
-        })
-    }
-
-    /// Like [`publish_from_iter`](Self::publish_from_iter), element `i` being `item(i)`, for
-    /// `i` in `0..len`: with the sources indexed directly (sliced to `len` first) the compiler
-    /// vectorises the fill, where an iterator is stepped one element at a time (the 40 000
-    /// cells of `map/plan`: 2–6 µs instead of 25–50 µs).
+    /// Like [`publish`](Self::publish), but element `i` of the shared-memory sample is written
+    /// as `item(i)`, for `i` in `0..len`, with no buffer in between: with the sources indexed
+    /// directly (sliced to `len` first) the compiler vectorises the fill, where an iterator is
+    /// stepped one element at a time (the 40 000 cells of `map/plan`: 2–6 µs instead of
+    /// 25–50 µs).
     pub fn publish_from_fn(
         &self,
         header: H,
@@ -1008,13 +991,15 @@ mod tests {
             seq: 3,
             ..MapHeader::default()
         };
-        // an iterator that ends early: the rest is the default
+        // filled as a slice, partly: the rest is the default
         let n = publ
-            .publish_from_iter(header, 6, (0..4).map(|i| i as f32 * 1.5))
+            .publish_filled(header, 6, |out| {
+                out[..4].copy_from_slice(&[0.0, 1.5, 3.0, 4.5])
+            })
             .expect("publish");
         assert_eq!(n, 1);
         assert!(matches!(
-            publ.publish_from_iter(header, 9, std::iter::repeat(1.0)),
+            publ.publish_filled(header, 9, |out| out.fill(1.0)),
             Err(IpcError::Capacity {
                 len: 9,
                 capacity: 8,
@@ -1030,12 +1015,6 @@ mod tests {
             .expect("publish");
         let sample = sub.receive().expect("receive").expect("a sample");
         assert_eq!(sample.payload(), &[0.0, 2.0, 4.0, 6.0, 8.0]);
-        drop(sample);
-        // filled as a slice: what the closure leaves is the default
-        publ.publish_filled(header, 4, |out| out[1..3].copy_from_slice(&[7.0, 8.0]))
-            .expect("publish");
-        let sample = sub.receive().expect("receive").expect("a sample");
-        assert_eq!(sample.payload(), &[0.0, 7.0, 8.0, 0.0]);
     }
 
     /// Every file of the domain — its segments in /dev/shm and the files under its root path —

@@ -95,17 +95,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let config_path = cli.config.clone().or_else(|| {
-        let etc = PathBuf::from(mimnav_shared::config::DEFAULT_CONFIG_PATH);
-        let local = PathBuf::from("config/mimnav.toml");
-        if etc.exists() {
-            Some(etc)
-        } else if local.exists() {
-            Some(local)
-        } else {
-            None
-        }
-    });
+    let config_path = Config::front_end_path(cli.config.as_deref());
     let config = match Config::resolve(config_path.as_deref(), &cli.set) {
         Ok(c) => c,
         Err(e) => {

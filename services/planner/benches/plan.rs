@@ -122,12 +122,17 @@ fn kept(world: &str, robot: &str, make: impl FnOnce() -> Vec<Case>) -> Vec<Case>
     maps
 }
 
+/// `PLAN_BENCH=digest`: each map planned once and the outcomes' digest printed, no timing.
+fn digest_only() -> bool {
+    std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest")
+}
+
 fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     let mut params = config.planner_params();
     params.planner.inflation = inflation;
     let mut planner = Planner::new(params);
     let grid = config.map.grid();
-    if std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest") {
+    if digest_only() {
         // FNV-1a over every outcome's debug text: any change of a speed, a turn or a score shows
         let mut h = 0xcbf2_9ce4_8422_2325u64;
         for (classes, v, w, goal) in maps {
@@ -167,7 +172,7 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
 
 /// Where the time goes: each stage alone, mean µs per map.
 fn breakdown(config: &Config, maps: &[Case]) {
-    if std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest") {
+    if digest_only() {
         return;
     }
     use mimnav_planner::dwa;

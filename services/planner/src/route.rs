@@ -57,15 +57,14 @@ pub struct Route {
     clear: Vec<f32>,
     /// Coarse clearance from solids, glass and suspected glass, m.
     soft: Vec<f32>,
-    /// The extra cost per metre of each coarse cell for lacking room to turn.
-    swing: Vec<f32>,
     /// Coarse distance from free ends of walls and panes, m (`end_m`).
     ends: Vec<f32>,
     /// `open` with a closed border two cells wide.
     padded: Vec<bool>,
     /// Route length to the goal from each coarse cell's centre, m (infinite: no route).
     dist: Vec<f32>,
-    /// What a metre costs entering each coarse cell: 1 + `cost_weight` · cost / 255 + `swing`.
+    /// What a metre costs entering each coarse cell: 1 + `cost_weight` · cost / 255, and more
+    /// for lacking room to turn, near a free end or touching suspected glass.
     step: Vec<f32>,
     /// The cells seeded, with their distance to the goal.
     seeded: Vec<(u32, f32)>,
@@ -94,7 +93,6 @@ impl Default for Route {
             weight: Vec::new(),
             clear: Vec::new(),
             soft: Vec::new(),
-            swing: Vec::new(),
             ends: Vec::new(),
             padded: Vec::new(),
             dist: Vec::new(),
@@ -247,16 +245,19 @@ impl Route {
         for (open, &d) in self.open.iter_mut().zip(&obstacle) {
             *open = d > 0.0 && d >= need;
         }
-        // the extra cost per metre: lacking room to turn (from anything glass), and where the
+        // what a metre entering each cell costs, once per cell instead of once per move: its
+        // planning cost, and extra for lacking room to turn (from anything glass) and where the
         // footprint would touch suspected glass — within half a coarse cell more, so the band
         // is three cells wide and no knight's move jumps it
         let touch = p.radius_m + 0.5 * self.coarse.cell_m;
-        self.swing.clear();
-        self.swing.extend(
+        let scale = p.cost_weight / 255.0;
+        self.step.clear();
+        self.step.extend(
             soft.iter()
                 .zip(&obstacle)
+                .zip(&self.weight)
                 .enumerate()
-                .map(|(k, (&d, &solid_d))| {
+                .map(|(k, ((&d, &solid_d), &w))| {
                     let mut swing = match p.swing_m > 0.0 {
                         true => {
                             p.swing_weight
@@ -271,18 +272,18 @@ impl Route {
                         swing =
                             swing.max(p.swing_weight * ((p.end_m - e) / p.end_m).clamp(0.0, 1.0));
                     }
-                    swing
+                    let swing = swing
                         + if suspected_near {
                             p.suspect_weight
                         } else {
                             0.0
-                        }
+                        };
+                    1.0 + scale * f32::from(w) + swing
                 }),
         );
         self.clear = obstacle;
         self.soft = soft;
         self.ends = ends;
-        let scale = p.cost_weight / 255.0;
         // the goal's own cell, or the border when the goal lies outside the map
         let cs = self.coarse;
         let h = cs.half_extent_m();
@@ -340,14 +341,6 @@ impl Route {
                 }
             }
         }
-        // what a metre entering each cell costs, once per cell instead of once per move
-        self.step.clear();
-        self.step.extend(
-            self.weight
-                .iter()
-                .zip(&self.swing)
-                .map(|(&w, &swing)| 1.0 + scale * f32::from(w) + swing),
-        );
         self.search(w, wanted);
     }
 
