@@ -298,6 +298,11 @@ pub mod command_flags {
     /// The robot is going to look at suspected glass its route leads into: it drives beside the
     /// pane's line so its beams meet the unseen stretch squarely (`planner.look_after_s`).
     pub const LOOKING: u8 = 8;
+    /// The robot is squeezing through: its route led it no nearer the goal for
+    /// `planner.tight_after_s`, so it plans with `planner.tight_margin_m` instead of
+    /// `planner.margin_m`, slowly, for `planner.tight_s` (a gap the body fits with less than
+    /// the margin each side).
+    pub const TIGHT: u8 = 16;
 }
 
 /// A velocity command for the base (REP-103: v forward, ω counter-clockwise).

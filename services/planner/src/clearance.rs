@@ -25,6 +25,20 @@ impl Clearance {
     /// Computes the clearance of the cells within `half_m` of the map's centre (the robot),
     /// capped at `cap_m`.
     pub fn compute(&mut self, classes: &[u8], grid: GridSpec, half_m: f32, cap_m: f32) {
+        self.compute_glass_nearer(classes, grid, half_m, cap_m, 0.0);
+    }
+
+    /// [`Clearance::compute`] with glass and suspected glass counted `glass_nearer_m` nearer
+    /// than they are (their cells start the transform at −`glass_nearer_m`): a footprint test
+    /// with a margin this much smaller then still keeps the full margin from glass.
+    pub fn compute_glass_nearer(
+        &mut self,
+        classes: &[u8],
+        grid: GridSpec,
+        half_m: f32,
+        cap_m: f32,
+        glass_nearer_m: f32,
+    ) {
         let n = grid.cells;
         let half = ((half_m / grid.cell_m).ceil().max(1.0) as usize).min(n / 2);
         let lo = n / 2 - half;
@@ -41,7 +55,11 @@ impl Clearance {
             self.data.extend(
                 classes[r * n + lo..r * n + lo + side]
                     .iter()
-                    .map(|&c| if cell_class::blocks(c) { 0.0 } else { cap_m }),
+                    .map(|&c| match c {
+                        c if cell_class::is_glass(c) => -glass_nearer_m,
+                        c if cell_class::blocks(c) => 0.0,
+                        _ => cap_m,
+                    }),
             );
         }
         chamfer(&mut self.data, side, grid.cell_m);

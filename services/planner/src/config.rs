@@ -112,6 +112,17 @@ pub struct PlannerConfig {
     pub look_after_s: f64,
     /// How long one look lasts at most, s.
     pub look_s: f64,
+    /// A robot whose route has led it no nearer the goal (by `0.5 m`) for this long plans with
+    /// `tight_margin_m` from solids instead of `margin_m` (glass keeps `margin_m`) for
+    /// `tight_s` (flag `tight`): a gap the body fits through with less than the margin on each
+    /// side — a hedge's, a door's — is otherwise a place it circles before until its time runs
+    /// out, s (0: never). A round body only ([`crate::PlannerParams::tight_after_ns`]).
+    pub tight_after_s: f64,
+    /// The distance kept from solid and glass cells beyond the body while squeezing through
+    /// (`tight_after_s`), m; at most `margin_m`.
+    pub tight_margin_m: f64,
+    /// How long one squeeze lasts, s.
+    pub tight_s: f64,
     /// Looks without the robot getting `0.5 m` nearer the goal along its route, after which it
     /// looks no more.
     pub look_max: u32,
@@ -159,6 +170,9 @@ impl Default for PlannerConfig {
             look_after_s: 0.0,
             look_s: 8.0,
             look_max: 4,
+            tight_after_s: 3.0,
+            tight_margin_m: 0.05,
+            tight_s: 10.0,
             foliage_max_age_s: 0.3,
             map_max_age_s: 0.15,
             odom_max_age_s: 0.5,
@@ -236,6 +250,17 @@ impl PlannerConfig {
         r.check("planner.look_after_s", self.look_after_s, 0.0, 60.0);
         r.check("planner.look_s", self.look_s, 0.5, 60.0);
         r.check("planner.look_max", f64::from(self.look_max), 0.0, 100.0);
+        r.check("planner.tight_after_s", self.tight_after_s, 0.0, 600.0);
+        r.check("planner.tight_margin_m", self.tight_margin_m, 0.0, 2.0);
+        r.require(
+            self.tight_margin_m <= self.margin_m,
+            "planner.tight_margin_m",
+            format!(
+                "planner.tight_margin_m = {} must be at most planner.margin_m = {}",
+                self.tight_margin_m, self.margin_m
+            ),
+        );
+        r.check("planner.tight_s", self.tight_s, 0.1, 600.0);
         r.check("planner.recovery_s", self.recovery_s, 0.1, 60.0);
         r.check("planner.recovery_mps", self.recovery_mps, 0.01, 2.0);
         r.check(

@@ -65,6 +65,8 @@ pub fn confirm_obstacles(
 #[derive(Debug)]
 pub struct Planner {
     params: PlannerParams,
+    /// `params` squeezing through ([`PlannerParams::tight`]).
+    tight: PlannerParams,
     kernels: KernelCache,
     cost: Vec<u8>,
     inflate: inflate::Scratch,
@@ -80,6 +82,7 @@ impl Planner {
         let p = &params.planner;
         Planner {
             kernels: KernelCache::new(p.kernel_cells, p.padding_cells, p.kernel_angles),
+            tight: params.tight(),
             params,
             cost: Vec::new(),
             inflate: inflate::Scratch::default(),
@@ -104,7 +107,22 @@ impl Planner {
         omega0: f64,
         goal: (f64, f64),
     ) -> DwaOutcome {
-        self.plan_in(classes, grid, (v0, omega0), goal, false)
+        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Forward)
+    }
+
+    /// [`Planner::plan`] squeezing through: the footprint kept `planner.tight_margin_m` from
+    /// solid cells instead of `planner.margin_m` (the route's and the dynamic window's); glass
+    /// and suspected glass keep the full margin, since a pane may go on unseen where a wall or
+    /// a bush does not.
+    pub fn plan_tight(
+        &mut self,
+        classes: &[u8],
+        grid: GridSpec,
+        v0: f64,
+        omega0: f64,
+        goal: (f64, f64),
+    ) -> DwaOutcome {
+        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Tight)
     }
 
     /// [`Planner::plan`] backing out ([`dwa::back_out`]): the step of a robot the dynamic window
@@ -117,7 +135,7 @@ impl Planner {
         omega0: f64,
         goal: (f64, f64),
     ) -> DwaOutcome {
-        self.plan_in(classes, grid, (v0, omega0), goal, true)
+        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Back)
     }
 
     fn plan_in(
@@ -126,9 +144,12 @@ impl Planner {
         grid: GridSpec,
         (v0, omega0): (f64, f64),
         goal: (f64, f64),
-        back: bool,
+        mode: Mode,
     ) -> DwaOutcome {
-        let p = &self.params;
+        let p = match mode {
+            Mode::Tight => &self.tight,
+            Mode::Forward | Mode::Back => &self.params,
+        };
         if classes.len() != grid.len() || grid.is_empty() {
             return DwaOutcome::Blocked;
         }
@@ -155,8 +176,19 @@ impl Planner {
         );
         // the rollouts reach max_v · horizon; obstacles matter up to the footprint beyond
         let reach = p.reach_m();
-        self.clear
-            .compute(classes, grid, reach as f32 + 2.0 * grid.cell_m, 5.0);
+        // squeezing through, the margin is smaller from solids only: glass keeps the full one
+        // (a pane goes on unseen; a wall or a bush does not)
+        let glass_nearer = match mode {
+            Mode::Tight => (self.params.planner.margin_m - p.planner.margin_m).max(0.0) as f32,
+            Mode::Forward | Mode::Back => 0.0,
+        };
+        self.clear.compute_glass_nearer(
+            classes,
+            grid,
+            reach as f32 + 2.0 * grid.cell_m,
+            5.0,
+            glass_nearer,
+        );
         let route = if p.planner.route_cell_m > 0.0 {
             self.route.build(
                 &p.route_params(reach as f32),
@@ -169,7 +201,7 @@ impl Planner {
         } else {
             None
         };
-        if back {
+        if mode == Mode::Back {
             let (cost, clear) = (&self.cost, &self.clear);
             return dwa::back_out(p, grid, cost, clear, (v0, omega0), goal, route);
         }
@@ -195,6 +227,14 @@ impl Planner {
     pub fn route(&self) -> &Route {
         &self.route
     }
+}
+
+/// Which plan [`Planner::plan_in`] makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Forward,
+    Tight,
+    Back,
 }
 
 /// The top speed near glass (`planner.glass_slow_mps` with glass at the body's edge, rising

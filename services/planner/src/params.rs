@@ -132,6 +132,30 @@ impl PlannerParams {
         seconds_ns(self.planner.look_after_s)
     }
 
+    /// How long the route may lead no nearer the goal before the robot squeezes through with
+    /// `planner.tight_margin_m` (`planner.tight_after_s`; 0: never), ns. A round body only: a
+    /// long one's corners swing as it turns in a gap, and on the tune worlds Spot squeezing
+    /// touched three impassable hedges instead of one and gained no hedge (docs/glass.md).
+    pub fn tight_after_ns(&self) -> u64 {
+        match self.robot.body() {
+            mimnav_shared::config::Body::Round(_) => seconds_ns(self.planner.tight_after_s),
+            mimnav_shared::config::Body::Rectangle { .. } => 0,
+        }
+    }
+
+    /// How long one squeeze lasts (`planner.tight_s`), ns.
+    pub fn tight_ns(&self) -> u64 {
+        seconds_ns(self.planner.tight_s)
+    }
+
+    /// These settings squeezing through: `planner.margin_m` replaced by
+    /// `planner.tight_margin_m`.
+    pub fn tight(&self) -> PlannerParams {
+        let mut p = self.clone();
+        p.planner.margin_m = self.planner.tight_margin_m;
+        p
+    }
+
     /// How long one look lasts at most (`planner.look_s`), ns.
     pub fn look_ns(&self) -> u64 {
         seconds_ns(self.planner.look_s)

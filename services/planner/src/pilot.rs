@@ -135,6 +135,11 @@ impl Decision {
         } else {
             what
         };
+        let what = if driving && self.flags & command_flags::TIGHT != 0 {
+            what + " squeezing through (planner.tight_margin_m)"
+        } else {
+            what
+        };
         let what = if driving && self.flags & command_flags::LOOKING != 0 {
             what + " beside suspected glass, to see it"
         } else {
@@ -184,6 +189,8 @@ pub struct Pilot {
     back_out: BackOut,
     /// Going to look at suspected glass: see [`Look`].
     look: Look,
+    /// Squeezing through: see [`Tight`].
+    tight: Tight,
 }
 
 /// Below these speeds (m/s, rad/s) a command holds the robot (nearly) still: a long body that
@@ -204,6 +211,61 @@ struct BackOut {
     tries: u32,
     /// The distance to the goal then, m.
     progress_ref_m: f64,
+}
+
+/// A route this much longer than the shortest it has been is a changed map (a wall seen late),
+/// not a robot going nowhere: the wait for progress starts again from it, m.
+const ROUTE_CHANGED_M: f64 = 1.0;
+
+/// Squeezing through (`planner.tight_after_s`): the route has led the robot no nearer the goal
+/// for that long, so it plans with `planner.tight_margin_m` for `planner.tight_s`.
+#[derive(Debug, Clone, Copy)]
+struct Tight {
+    /// The route's length to the goal when it last fell by [`PROGRESS_M`], m, and since when
+    /// (monotonic ns).
+    best_m: f64,
+    since: Option<u64>,
+    /// Squeezing until then (monotonic ns).
+    until: Option<u64>,
+}
+
+impl Default for Tight {
+    fn default() -> Self {
+        Tight {
+            best_m: f64::INFINITY,
+            since: None,
+            until: None,
+        }
+    }
+}
+
+impl Tight {
+    /// Whether the plan at `now` squeezes through.
+    fn on(&self, now: u64) -> bool {
+        self.until.is_some_and(|u| now < u)
+    }
+
+    /// Takes the route's length to the goal after a plan at `now` (infinite: no route): starts
+    /// a squeeze after `after` ns without progress, lasting `lasts` ns, and after one a new
+    /// wait.
+    fn see(&mut self, route_m: f64, now: u64, after: u64, lasts: u64) {
+        if after == 0 {
+            return;
+        }
+        if route_m.is_finite()
+            && (route_m < self.best_m - PROGRESS_M || route_m > self.best_m + ROUTE_CHANGED_M)
+        {
+            (self.best_m, self.since) = (route_m, Some(now));
+        }
+        let since = *self.since.get_or_insert(now);
+        match self.until {
+            Some(u) if now >= u => (self.until, self.since) = (None, Some(now)),
+            None if now.saturating_sub(since) >= after => {
+                self.until = Some(now.saturating_add(lasts));
+            }
+            _ => {}
+        }
+    }
 }
 
 /// How far ahead along its route the robot looks for suspected glass it leads into, m.
@@ -272,6 +334,7 @@ impl Pilot {
             map_hop: Hop::new(),
             back_out: BackOut::default(),
             look: Look::default(),
+            tight: Tight::default(),
         }
     }
 
@@ -323,6 +386,7 @@ impl Pilot {
             self.no_route_since = None;
             self.back_out = BackOut::default();
             self.look = Look::default();
+            self.tight = Tight::default();
             return Ok(());
         }
         if !(g.x.is_finite() && g.y.is_finite() && g.tolerance_m.is_finite()) || g.tolerance_m < 0.0
@@ -334,6 +398,7 @@ impl Pilot {
         self.no_route_since = None;
         self.back_out = BackOut::default();
         self.look = Look::default();
+        self.tight = Tight::default();
         Ok(())
     }
 
@@ -448,7 +513,20 @@ impl Pilot {
         if let Some(d) = self.looking(grid, &pose, (v0, omega0), now, flags, header) {
             return d;
         }
-        let outcome = self.planner.plan(&self.classes, grid, v0, omega0, (gx, gy));
+        let outcome = if self.tight.on(now) {
+            flags |= command_flags::TIGHT;
+            (self.planner).plan_tight(&self.classes, grid, v0, omega0, (gx, gy))
+        } else {
+            self.planner.plan(&self.classes, grid, v0, omega0, (gx, gy))
+        };
+        let (after, lasts) = (self.params().tight_after_ns(), self.params().tight_ns());
+        // progress by the straight line where no route is searched (the paper's DWA)
+        let route_m = if self.params().planner.route_cell_m > 0.0 {
+            f64::from(self.planner.route().value(0.0, 0.0))
+        } else {
+            gx.hypot(gy)
+        };
+        self.tight.see(route_m, now, after, lasts);
         if let Some(d) = self.held_still(&outcome, grid, (v0, omega0), (gx, gy), now, flags, header)
         {
             return d;

@@ -27,7 +27,7 @@ use serde_json::{Value, json};
 use mimnav_shared::pose::LidarMount;
 use mimnav_shared::topics::{
     BaseState, FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, PlanCell, Point,
-    PointsHeader, VelocityCommand,
+    PointsHeader, VelocityCommand, command_flags,
 };
 
 /// The fixed odometry frame of the maps, the poses and the path.
@@ -514,9 +514,11 @@ pub fn cmd_vel(c: &VelocityCommand, rev_to_cmd_us: Option<f64>) -> Vec<u8> {
         "status": c.status,
         "status_name": status_name(c.status),
         "flags": c.flags,
-        "foliage_alarm": c.flags & 1 != 0,
-        "no_route": c.flags & 2 != 0,
-        "backing_out": c.flags & 4 != 0,
+        "foliage_alarm": c.flags & command_flags::FOLIAGE_ALARM != 0,
+        "no_route": c.flags & command_flags::NO_ROUTE != 0,
+        "backing_out": c.flags & command_flags::BACKING_OUT != 0,
+        "looking": c.flags & command_flags::LOOKING != 0,
+        "tight": c.flags & command_flags::TIGHT != 0,
         "rev_to_cmd_us": rev_to_cmd_us,
     }))
 }
@@ -607,6 +609,8 @@ pub mod schemas {
                 ("foliage_alarm", "boolean"),
                 ("no_route", "boolean"),
                 ("backing_out", "boolean"),
+                ("looking", "boolean"),
+                ("tight", "boolean"),
                 ("rev_to_cmd_us", "number|null"),
             ],
         )
@@ -922,7 +926,7 @@ mod tests {
     fn json_messages_name_the_status_and_keep_every_field() {
         let c = VelocityCommand {
             status: 2,
-            flags: 5,
+            flags: command_flags::FOLIAGE_ALARM | command_flags::BACKING_OUT | command_flags::TIGHT,
             v: 0.25,
             ..Default::default()
         };
@@ -931,6 +935,14 @@ mod tests {
         assert_eq!(
             (m["foliage_alarm"].clone(), m["backing_out"].clone()),
             (json!(true), json!(true))
+        );
+        assert_eq!(
+            (
+                m["no_route"].clone(),
+                m["looking"].clone(),
+                m["tight"].clone()
+            ),
+            (json!(false), json!(false), json!(true))
         );
         assert_eq!(m["rev_to_cmd_us"], 1200.0);
         let props = schemas::cmd_vel()["properties"].as_object().unwrap().len();
