@@ -107,22 +107,7 @@ impl Planner {
         omega0: f64,
         goal: (f64, f64),
     ) -> DwaOutcome {
-        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Forward)
-    }
-
-    /// [`Planner::plan`] squeezing through: the footprint kept `planner.tight_margin_m` from
-    /// solid cells instead of `planner.margin_m` (the route's and the dynamic window's); glass
-    /// and suspected glass keep the full margin, since a pane may go on unseen where a wall or
-    /// a bush does not.
-    pub fn plan_tight(
-        &mut self,
-        classes: &[u8],
-        grid: GridSpec,
-        v0: f64,
-        omega0: f64,
-        goal: (f64, f64),
-    ) -> DwaOutcome {
-        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Tight)
+        self.plan_as(Mode::Forward, classes, grid, (v0, omega0), goal)
     }
 
     /// [`Planner::plan`] backing out ([`dwa::back_out`]): the step of a robot the dynamic window
@@ -135,16 +120,18 @@ impl Planner {
         omega0: f64,
         goal: (f64, f64),
     ) -> DwaOutcome {
-        self.plan_in(classes, grid, (v0, omega0), goal, Mode::Back)
+        self.plan_as(Mode::Back, classes, grid, (v0, omega0), goal)
     }
 
-    fn plan_in(
+    /// One step planned as `mode` says ([`Planner::plan`] and [`Planner::back_out`] are two
+    /// of them).
+    pub fn plan_as(
         &mut self,
+        mode: Mode,
         classes: &[u8],
         grid: GridSpec,
         (v0, omega0): (f64, f64),
         goal: (f64, f64),
-        mode: Mode,
     ) -> DwaOutcome {
         let p = match mode {
             Mode::Tight => &self.tight,
@@ -229,11 +216,17 @@ impl Planner {
     }
 }
 
-/// Which plan [`Planner::plan_in`] makes.
+/// Which plan [`Planner::plan_as`] makes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Mode {
+pub enum Mode {
+    /// Forward, the footprint kept `planner.margin_m` from solid and glass cells.
     Forward,
+    /// Forward squeezing through: the footprint kept `planner.tight_margin_m` from solid cells
+    /// instead of `planner.margin_m` (the route's and the dynamic window's); glass and
+    /// suspected glass keep the full margin, since a pane may go on unseen where a wall or a
+    /// bush does not.
     Tight,
+    /// Backing out ([`dwa::back_out`]).
     Back,
 }
 
@@ -255,7 +248,9 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
         return f64::INFINITY;
     }
     let body = p.robot.body();
-    let ends = p.planner.glass_slow_ends;
+    // a round body's first point to reach a pane's line is the foot of the sensor's
+    // perpendicular, where the pane spikes: only a long body's corner crosses the line unseen
+    let ends = p.planner.glass_slow_ends && matches!(body, Body::Rectangle { .. });
     let reach = (body.enclosing_radius_m() + within) as f32 + grid.cell_m;
     let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(0.0, -reach), grid.cell_of(reach, reach))
     else {
@@ -589,11 +584,13 @@ mod tests {
 
     /// Issue 22: Spot turning into a glass corridor's mouth touched a pane that went on, unseen,
     /// from the end of the wall beside the mouth. With `glass_slow_ends` a wall's free end ahead
-    /// limits the speed as glass does; the wall's middle and a corner do not, nor an end behind.
+    /// limits a long body's speed as glass does; the wall's middle and a corner do not, nor an
+    /// end behind, nor any end a round body's.
     #[test]
     fn a_walls_free_end_ahead_slows_like_glass_when_asked() {
         let mut p = PlannerParams::default();
         p.planner.glass_slow_ends = true;
+        (p.robot.length_m, p.robot.width_m) = (1.1, 0.5);
         // a wall along y = 0.5 m ending 0.6 m ahead of the robot, running on to the left edge
         let (grid, ending) = crate::clearance::tests::map(|x, y| {
             if x < 0.6 && x > -4.0 && (y - 0.5).abs() < 0.05 {
@@ -607,6 +604,10 @@ mod tests {
         let mut off = p.clone();
         off.planner.glass_slow_ends = false;
         assert_eq!(glass_speed_cap(&off, &ending, grid), f64::INFINITY);
+        // a round body is not slowed by a wall's end: it faces a pane before it can touch it
+        let mut round = p.clone();
+        (round.robot.length_m, round.robot.width_m) = (0.0, 0.0);
+        assert_eq!(glass_speed_cap(&round, &ending, grid), f64::INFINITY);
         // the same wall running on past the robot: no end near
         let (grid, through) = crate::clearance::tests::map(|x, y| {
             if x > -4.0 && x < 4.0 && (y - 0.5).abs() < 0.05 {

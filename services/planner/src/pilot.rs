@@ -513,12 +513,13 @@ impl Pilot {
         if let Some(d) = self.looking(grid, &pose, (v0, omega0), now, flags, header) {
             return d;
         }
-        let outcome = if self.tight.on(now) {
+        let mode = if self.tight.on(now) {
             flags |= command_flags::TIGHT;
-            (self.planner).plan_tight(&self.classes, grid, v0, omega0, (gx, gy))
+            crate::Mode::Tight
         } else {
-            self.planner.plan(&self.classes, grid, v0, omega0, (gx, gy))
+            crate::Mode::Forward
         };
+        let outcome = (self.planner).plan_as(mode, &self.classes, grid, (v0, omega0), (gx, gy));
         let (after, lasts) = (self.params().tight_after_ns(), self.params().tight_ns());
         // progress by the straight line where no route is searched (the paper's DWA)
         let route_m = if self.params().planner.route_cell_m > 0.0 {
