@@ -90,8 +90,9 @@ pub struct PlannerConfig {
     /// the speed limit near glass ends, m (0: no limit).
     pub glass_slow_within_m: f64,
     /// A solid wall's free end ahead (the mouth of a corridor, a door's jamb in a wall: a pane
-    /// may go on from it unseen) limits the speed as glass does. Off: on the tune worlds it
-    /// took Spot's corridor contacts away but lowered a family for each robot (docs/glass.md).
+    /// may go on from it unseen) limits a long body's speed as glass does (a round body faces a
+    /// pane where it would first touch it). On the tune worlds, two episode seeds, Spot 99 →
+    /// 101 of 140, contacts 20 → 11, no family lower (docs/glass.md).
     pub glass_slow_ends: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
@@ -162,7 +163,7 @@ impl Default for PlannerConfig {
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
-            glass_slow_ends: false,
+            glass_slow_ends: true,
             recovery_after_s: 1.5,
             recovery_s: 2.0,
             recovery_mps: 0.15,
