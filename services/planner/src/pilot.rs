@@ -214,29 +214,58 @@ struct BackOut {
 }
 
 /// A route this much longer than the shortest it has been is a changed map (a wall seen late),
-/// not a robot going nowhere: the wait for progress starts again from it, m.
+/// not a robot going nowhere: squeezing's wait for progress starts again from it, m.
 const ROUTE_CHANGED_M: f64 = 1.0;
+
+/// Progress along the route: its length to the goal when it last fell by [`PROGRESS_M`], and
+/// since when. Looking and squeezing both start after a while without it.
+#[derive(Debug, Clone, Copy)]
+struct Progress {
+    best_m: f64,
+    /// Monotonic ns.
+    since: Option<u64>,
+}
+
+impl Default for Progress {
+    fn default() -> Self {
+        Progress {
+            best_m: f64::INFINITY,
+            since: None,
+        }
+    }
+}
+
+impl Progress {
+    /// Takes the route's length at `now` (infinite: no route); a route `changed_m` longer than
+    /// the best starts the wait again from it. True when the route made progress.
+    fn see(&mut self, route_m: f64, now: u64, changed_m: f64) -> bool {
+        let progress = route_m.is_finite()
+            && (route_m < self.best_m - PROGRESS_M || route_m > self.best_m + changed_m);
+        if progress {
+            (self.best_m, self.since) = (route_m, Some(now));
+        }
+        self.since.get_or_insert(now);
+        progress
+    }
+
+    /// How long the route has made no progress at `now`, ns.
+    fn stalled_ns(&self, now: u64) -> u64 {
+        self.since.map_or(0, |s| now.saturating_sub(s))
+    }
+
+    /// Starts the wait again at `now`.
+    fn restart(&mut self, now: u64) {
+        self.since = Some(now);
+    }
+}
 
 /// Squeezing through (`planner.tight_after_s`): the route has led the robot no nearer the goal
 /// for that long, so it plans with `planner.tight_margin_m` for `planner.tight_s`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Tight {
-    /// The route's length to the goal when it last fell by [`PROGRESS_M`], m, and since when
-    /// (monotonic ns).
-    best_m: f64,
-    since: Option<u64>,
+    progress: Progress,
     /// Squeezing until then (monotonic ns).
     until: Option<u64>,
-}
-
-impl Default for Tight {
-    fn default() -> Self {
-        Tight {
-            best_m: f64::INFINITY,
-            since: None,
-            until: None,
-        }
-    }
 }
 
 impl Tight {
@@ -252,15 +281,13 @@ impl Tight {
         if after == 0 {
             return;
         }
-        if route_m.is_finite()
-            && (route_m < self.best_m - PROGRESS_M || route_m > self.best_m + ROUTE_CHANGED_M)
-        {
-            (self.best_m, self.since) = (route_m, Some(now));
-        }
-        let since = *self.since.get_or_insert(now);
+        self.progress.see(route_m, now, ROUTE_CHANGED_M);
         match self.until {
-            Some(u) if now >= u => (self.until, self.since) = (None, Some(now)),
-            None if now.saturating_sub(since) >= after => {
+            Some(u) if now >= u => {
+                self.until = None;
+                self.progress.restart(now);
+            }
+            None if self.progress.stalled_ns(now) >= after => {
                 self.until = Some(now.saturating_add(lasts));
             }
             _ => {}
@@ -284,10 +311,7 @@ const LOOK_NEAR_EXTRA_M: f64 = 0.3;
 /// Going to look at suspected glass the route leads into ([`crate::look`]).
 #[derive(Debug, Clone, Copy)]
 struct Look {
-    /// The route's length to the goal when it last fell by [`PROGRESS_M`], m, and since when
-    /// (monotonic ns).
-    best_m: f64,
-    since: Option<u64>,
+    progress: Progress,
     /// The look under way: its target in the odometry frame, and when it ends at the latest.
     target: Option<(f64, f64)>,
     until: u64,
@@ -298,8 +322,7 @@ struct Look {
 impl Default for Look {
     fn default() -> Self {
         Look {
-            best_m: f64::INFINITY,
-            since: None,
+            progress: Progress::default(),
             target: None,
             until: 0,
             tries: 0,
@@ -692,12 +715,12 @@ impl Pilot {
         );
         let route_m = f64::from(self.planner.route().value(0.0, 0.0));
         let l = &mut self.look;
-        if route_m.is_finite() && route_m < l.best_m - PROGRESS_M {
-            (l.best_m, l.since, l.tries) = (route_m, Some(now), 0);
+        // a look keeps waiting however much longer the route grows
+        if l.progress.see(route_m, now, f64::INFINITY) {
+            l.tries = 0;
             return None;
         }
-        let since = *l.since.get_or_insert(now);
-        if now.saturating_sub(since) < after || l.tries >= max_tries {
+        if l.progress.stalled_ns(now) < after || l.tries >= max_tries {
             return None;
         }
         let route = self.planner.route();
@@ -730,7 +753,7 @@ impl Pilot {
         l.target = Some(pose.to_fixed(tx, ty));
         l.until = now.saturating_add(look_ns);
         l.tries += 1;
-        l.since = Some(now);
+        l.progress.restart(now);
         self.looking(grid, pose, v0_omega0, now, flags, header)
     }
 
