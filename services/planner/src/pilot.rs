@@ -309,7 +309,7 @@ const LOOK_FAR_M: f64 = 1.5;
 const LOOK_NEAR_EXTRA_M: f64 = 0.3;
 
 /// Going to look at suspected glass the route leads into ([`crate::look`]).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Look {
     progress: Progress,
     /// The look under way: its target in the odometry frame, and when it ends at the latest.
@@ -317,17 +317,6 @@ struct Look {
     until: u64,
     /// Looks since the route last fell by [`PROGRESS_M`].
     tries: u32,
-}
-
-impl Default for Look {
-    fn default() -> Self {
-        Look {
-            progress: Progress::default(),
-            target: None,
-            until: 0,
-            tries: 0,
-        }
-    }
 }
 
 impl Default for BackOut {
