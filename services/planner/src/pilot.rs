@@ -41,9 +41,9 @@ pub enum Stale {
     NoMap,
     /// A map whose header does not match its payload (cell count, cell size).
     BadMap,
-    /// The goal in the robot frame is not finite: odometry or goal so large the numbers
-    /// overflow ([`crate::guard`]).
-    GoalNotFinite,
+    /// The goal in the robot frame is not finite (odometry or goal so large the numbers
+    /// overflow) or is farther than [`crate::guard::MAX_GOAL_M`] ([`crate::guard`]).
+    GoalOutOfRange,
 }
 
 impl Stale {
@@ -54,7 +54,9 @@ impl Stale {
             Stale::OldOdometry => "odometry older than planner.odom_max_age_s",
             Stale::NoMap => "no map on map/plan for planner.map_max_age_s",
             Stale::BadMap => "a map whose header does not match its cells",
-            Stale::GoalNotFinite => "the goal in the robot frame is not finite",
+            Stale::GoalOutOfRange => {
+                "the goal in the robot frame is not finite or is over 100 km away"
+            }
         }
     }
 }
@@ -496,7 +498,7 @@ impl Pilot {
             return Decision::stop(
                 command_status::STALE_INPUT,
                 0,
-                Some(Stale::GoalNotFinite),
+                Some(Stale::GoalOutOfRange),
                 Some(header),
             );
         };

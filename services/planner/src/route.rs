@@ -364,7 +364,9 @@ impl Route {
         for &(_, d) in &self.seeded {
             (lo, hi) = (lo.min(d), hi.max(d));
         }
-        if !lo.is_finite() {
+        // bucket numbers count from zero metres: a seed farther than this (a goal the pilot
+        // refuses, `guard::MAX_GOAL_M`) would overflow them, so no cell gets a route
+        if lo.is_nan() || lo * inv > (1u64 << 40) as f32 {
             return;
         }
         // every queued length lies within the seeds' spread or one move of the current bucket

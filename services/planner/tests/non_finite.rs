@@ -126,7 +126,7 @@ fn issue23_3_non_finite_values_accepted_an_overflowing_goal_stops_with_a_status(
     };
     p.goal(&goal).expect("a finite goal is taken");
     let d = p.on_map(&header(), free(), t);
-    assert_eq!(d.stale, Some(mimnav_planner::pilot::Stale::GoalNotFinite));
+    assert_eq!(d.stale, Some(mimnav_planner::pilot::Stale::GoalOutOfRange));
     assert_eq!(
         (d.status, d.v, d.omega),
         (command_status::STALE_INPUT, 0.0, 0.0)
