@@ -7,7 +7,7 @@
 //!
 //! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
 //! speed-up must leave them the same) — short enough to count instructions under
-//! `valgrind --tool=callgrind`. With `PLAN_BENCH_MAPS=DIR` the maps are kept in DIR after the
+//! `valgrind --tool=callgrind`; `PLAN_BENCH_ADAPTIVE=1` leaves out the uniform baseline. With `PLAN_BENCH_MAPS=DIR` the maps are kept in DIR after the
 //! first run and read back after, so a run under callgrind simulates nothing:
 //!
 //! ```sh
@@ -125,6 +125,12 @@ fn kept(world: &str, robot: &str, make: impl FnOnce() -> Vec<Case>) -> Vec<Case>
 /// `PLAN_BENCH=digest`: each map planned once and the outcomes' digest printed, no timing.
 fn digest_only() -> bool {
     std::env::var("PLAN_BENCH").is_ok_and(|v| v == "digest")
+}
+
+/// `PLAN_BENCH_ADAPTIVE=1`: the deployed inflation only (the uniform baseline's 169 taps would
+/// otherwise dominate an instruction count of the inflation).
+fn adaptive_only() -> bool {
+    std::env::var_os("PLAN_BENCH_ADAPTIVE").is_some()
 }
 
 fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
@@ -266,6 +272,9 @@ fn main() {
     ] {
         let maps = kept(world, "turtlebot2", || maps(&config, world));
         for inflation in [Inflation::Adaptive, Inflation::Uniform] {
+            if inflation == Inflation::Uniform && adaptive_only() {
+                continue;
+            }
             time(world, &config, inflation, &maps);
         }
         breakdown(&config, &maps);

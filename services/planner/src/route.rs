@@ -460,17 +460,13 @@ impl Route {
         let h = cs.half_extent_m();
         let u = (x + h) / cs.cell_m - 0.5;
         let v = (y + h) / cs.cell_m - 0.5;
-        if !(u > -1.0 && v > -1.0 && u < n as f32 && v < n as f32) {
-            return f32::INFINITY;
-        }
-        // floor without a call into libm (half the cost of this function): past the test
-        // above, u and v are above −1, where truncation is the floor but for (−1, 0)
-        let floor = |a: f32| if a < 0.0 { -1 } else { a as i32 };
-        let (r0, c0) = (floor(u), floor(v));
-        let (fu, fv) = (u - r0 as f32, v - c0 as f32);
-        if r0 >= 0 && c0 >= 0 && r0 + 1 < n && c0 + 1 < n {
-            // inside: no clamping (the common case, every rollout step)
-            let k = (r0 * n + c0) as usize;
+        let inner = (n - 1) as f32;
+        if u >= 0.0 && v >= 0.0 && u < inner && v < inner {
+            // inside, the four cells on the grid (the common case, every rollout step): the
+            // floor is truncation
+            let (r0, c0) = (u as u32 as usize, v as u32 as usize);
+            let (fu, fv) = (u - r0 as f32, v - c0 as f32);
+            let k = r0 * n as usize + c0;
             let (d00, d01) = (self.dist[k], self.dist[k + 1]);
             let (d10, d11) = (self.dist[k + n as usize], self.dist[k + n as usize + 1]);
             if d00.is_finite() && d01.is_finite() && d10.is_finite() && d11.is_finite() {
@@ -478,6 +474,14 @@ impl Route {
                     + fu * ((1.0 - fv) * d10 + fv * d11);
             }
         }
+        if !(u > -1.0 && v > -1.0 && u < n as f32 && v < n as f32) {
+            return f32::INFINITY;
+        }
+        // floor without a call into libm: past the test above, u and v are above −1, where
+        // truncation is the floor but for (−1, 0)
+        let floor = |a: f32| if a < 0.0 { -1 } else { a as i32 };
+        let (r0, c0) = (floor(u), floor(v));
+        let (fu, fv) = (u - r0 as f32, v - c0 as f32);
         let at = |r: i32, c: i32| {
             let (r, c) = (r.clamp(0, n - 1), c.clamp(0, n - 1));
             self.dist[(r * n + c) as usize]
@@ -491,7 +495,8 @@ impl Route {
         if d00.is_finite() && d01.is_finite() && d10.is_finite() && d11.is_finite() {
             return (1.0 - fu) * ((1.0 - fv) * d00 + fv * d01) + fu * ((1.0 - fv) * d10 + fv * d11);
         }
-        let (r, c) = ((u + 0.5).floor() as i32, (v + 0.5).floor() as i32);
+        // the nearest cell: u + 0.5 is above −0.5, where `floor` holds as well
+        let (r, c) = (floor(u + 0.5), floor(v + 0.5));
         let mut best = f32::INFINITY;
         for dr in -1..=1 {
             for dc in -1..=1 {
