@@ -80,6 +80,9 @@ pub struct Route {
     row_cost: Vec<u8>,
     /// Cells whose final length is still wanted (`settle_within_m`).
     wanted: Vec<bool>,
+    /// The moves each coarse cell may take, bit j for `moves[j]`: its target and the cells it
+    /// passes beside are open.
+    allowed: Vec<u16>,
 }
 
 impl Default for Route {
@@ -104,6 +107,7 @@ impl Default for Route {
             row_obstacle: Vec::new(),
             row_cost: Vec::new(),
             wanted: Vec::new(),
+            allowed: Vec::new(),
         }
     }
 }
@@ -386,10 +390,27 @@ impl Route {
         }
         self.done.clear();
         self.done.resize(self.dist.len(), false);
+        // Each cell's moves as a mask, a move at a time over whole rows (vectorised): a cell
+        // taken then visits only its allowed moves, instead of testing three cells for each
+        // of the 16 (a third of the search's instructions).
+        self.allowed.clear();
+        self.allowed.resize(self.dist.len(), 0);
+        for (j, &(to, b1, b2, _, _)) in moves.iter().enumerate() {
+            for (r, row) in self.allowed.chunks_exact_mut(cells).enumerate() {
+                let at = |o: isize| {
+                    let s = (((r + 2) * w + 2) as isize + o) as usize;
+                    &self.padded[s..s + cells]
+                };
+                let (t, a, b) = (at(to), at(b1), at(b2));
+                for (((m, &t), &a), &b) in row.iter_mut().zip(t).zip(a).zip(b) {
+                    *m |= u16::from(t & a & b) << j;
+                }
+            }
+        }
         // slices, not the vectors: a push into a bucket then cannot move them, and their
         // pointers stay in registers
         let (dist, done) = (&mut self.dist[..], &mut self.done[..]);
-        let (step, padded) = (&self.step[..], &self.padded[..]);
+        let (step, allowed) = (&self.step[..], &self.allowed[..]);
         let (wanted_cells, seeded) = (&mut self.wanted[..], &self.seeded[..]);
         let mut queued = 0usize;
         for &(k, d) in seeded {
@@ -414,15 +435,11 @@ impl Route {
                     }
                 }
                 let d = dist[k];
-                let kp = ((k / cells + 2) * w + k % cells + 2) as isize;
-                for &(to, b1, b2, off, len) in moves {
-                    // no corner cutting: the cells a move passes beside must be open too
-                    if !(padded[(kp + to) as usize]
-                        && padded[(kp + b1) as usize]
-                        && padded[(kp + b2) as usize])
-                    {
-                        continue;
-                    }
+                // no corner cutting: the cells a move passes beside must be open too
+                let mut bits = allowed[k];
+                while bits != 0 {
+                    let (_, _, _, off, len) = moves[bits.trailing_zeros() as usize];
+                    bits &= bits - 1;
                     let kk = (k as isize + off) as usize;
                     let nd = d + len * step[kk];
                     if nd < dist[kk] {
