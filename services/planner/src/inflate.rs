@@ -167,8 +167,8 @@ pub fn plan_cost(
     sparse.clear();
     for (r, (row, mrow)) in classes.chunks(n).zip(mask.chunks_mut(n)).enumerate() {
         let base = (r + reach) * w + reach;
-        // without a branch per cell (a map of grass mixes the classes unpredictably)
-        let mut count = 0u32;
+        // without a branch per cell (a map of grass mixes the classes unpredictably), and
+        // counted in a pass of its own: with the count in it, this loop did not vectorise
         for ((&class, m), o) in row
             .iter()
             .zip(mrow.iter_mut())
@@ -179,8 +179,8 @@ pub fn plan_cost(
                 | u8::from(class == cell_class::SUSPECTED_GLASS);
             *m = obstacle.wrapping_neg();
             *o = *m | (passable & u8::from(class == cell_class::PASSABLE).wrapping_neg());
-            count += u32::from(obstacle);
         }
+        let count: u32 = mrow.iter().map(|&m| u32::from(m & 1)).sum();
         if count as usize >= DENSE_ROW {
             let first = mrow.iter().position(|&m| m != 0).unwrap_or(0);
             let last = mrow.iter().rposition(|&m| m != 0).unwrap_or(0);
