@@ -468,28 +468,39 @@ impl Route {
     /// between the four nearest coarse cells' centres where all four have a route, else the
     /// best of the neighbouring cells' lengths plus the straight way to their centres. Infinite
     /// where no route is known.
+    // the common case inlined into the rollouts (every other step of each), the rest out of line
+    #[inline(always)]
     pub fn value(&self, x: f32, y: f32) -> f32 {
         let cs = self.coarse;
-        let n = cs.cells as i32;
-        if n == 0 {
-            return f32::INFINITY;
-        }
+        let n = cs.cells;
         let h = cs.half_extent_m();
         let u = (x + h) / cs.cell_m - 0.5;
         let v = (y + h) / cs.cell_m - 0.5;
-        let inner = (n - 1) as f32;
+        let inner = n.saturating_sub(1) as f32;
         if u >= 0.0 && v >= 0.0 && u < inner && v < inner {
-            // inside, the four cells on the grid (the common case, every rollout step): the
-            // floor is truncation
+            // inside, the four cells on the grid: the floor is truncation
             let (r0, c0) = (u as u32 as usize, v as u32 as usize);
             let (fu, fv) = (u - r0 as f32, v - c0 as f32);
-            let k = r0 * n as usize + c0;
+            let k = r0 * n + c0;
             let (d00, d01) = (self.dist[k], self.dist[k + 1]);
-            let (d10, d11) = (self.dist[k + n as usize], self.dist[k + n as usize + 1]);
+            let (d10, d11) = (self.dist[k + n], self.dist[k + n + 1]);
             if d00.is_finite() && d01.is_finite() && d10.is_finite() && d11.is_finite() {
                 return (1.0 - fu) * ((1.0 - fv) * d00 + fv * d01)
                     + fu * ((1.0 - fv) * d10 + fv * d11);
             }
+        }
+        self.value_beside(x, y, u, v)
+    }
+
+    /// [`Route::value`] at the grid's edge or beside cells with no route: (u, v) are the point's
+    /// coordinates in coarse cells from the first cell's centre.
+    #[cold]
+    #[inline(never)]
+    fn value_beside(&self, x: f32, y: f32, u: f32, v: f32) -> f32 {
+        let cs = self.coarse;
+        let n = cs.cells as i32;
+        if n == 0 {
+            return f32::INFINITY;
         }
         if !(u > -1.0 && v > -1.0 && u < n as f32 && v < n as f32) {
             return f32::INFINITY;
