@@ -546,6 +546,52 @@ impl Route {
     pub fn coarse(&self) -> GridSpec {
         self.coarse
     }
+
+    /// `out[i]`, for i up to `rings`: the least route length of the coarse cells whose centres
+    /// lie within i coarse cells of the robot (the grid's centre); infinite where none has a
+    /// route. [`Route::value`] at a point interpolates cells whose centres are within 2.2 cells
+    /// of it, or adds a distance to one of them, so it is never below `out[i]` for a point
+    /// within i − 2.2 cells (but for the interpolation's rounding).
+    pub fn least_within(&self, rings: usize, out: &mut Vec<f32>) {
+        out.clear();
+        out.resize(rings + 1, f32::INFINITY);
+        let n = self.coarse.cells;
+        let mid = n as f32 * 0.5;
+        let (lo, hi) = (
+            (mid as usize).saturating_sub(rings + 1),
+            (mid as usize + rings + 1).min(n),
+        );
+        for r in lo..hi {
+            for c in lo..hi {
+                let (dr, dc) = (r as f32 + 0.5 - mid, c as f32 + 0.5 - mid);
+                let ring = dr.hypot(dc).ceil() as usize;
+                if ring <= rings {
+                    let d = self.dist[r * n + c];
+                    out[ring] = out[ring].min(d);
+                }
+            }
+        }
+        for i in 1..out.len() {
+            out[i] = out[i].min(out[i - 1]);
+        }
+    }
+
+    /// The rings [`Route::least_within`] needs for [`Route::value_floor`] within `radius_m`.
+    pub fn rings_for(&self, radius_m: f64) -> usize {
+        (radius_m / f64::from(self.coarse.cell_m) + 2.2).ceil() as usize
+    }
+
+    /// A number [`Route::value`] is never below at a point within `radius_m` of the robot,
+    /// from `least` as [`Route::least_within`] gave it (−∞ when it has too few rings).
+    pub fn value_floor(&self, least: &[f32], radius_m: f64) -> f64 {
+        least
+            .get(self.rings_for(radius_m))
+            .map_or(f64::NEG_INFINITY, |&d| {
+                // the interpolation's rounding: a few of an f32's units below its cells' least
+                let d = f64::from(d);
+                d - 1e-5 * d.abs() - 1e-4
+            })
+    }
 }
 
 /// A move on the padded grid: (offset of the target, of the two cells it passes beside — the
@@ -739,6 +785,48 @@ mod tests {
             proptest::prop_assume!(want.iter().any(|d| d.is_finite()));
             let same = want.iter().zip(&route.dist).all(|(a, b)| a.to_bits() == b.to_bits());
             proptest::prop_assert!(same, "lengths differ from the heap's");
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// The dynamic window skips speeds by [`Route::value_floor`]: the route's value at any
+        /// point within the radius is never below it, on any map and towards any goal.
+        #[test]
+        fn no_point_within_a_radius_is_below_the_routes_floor_there(
+            cells in proptest::collection::vec(0u8..16, 3600),
+            goal in (-9.0f32..9.0, -9.0f32..9.0),
+            radius in 0.0f64..2.5,
+        ) {
+            let classes: Vec<u8> = cells
+                .iter()
+                .map(|&c| if c == 0 { cell_class::SOLID } else { cell_class::FREE })
+                .collect();
+            let grid = GridSpec { cells: 60, cell_m: 0.1 };
+            let mut route = Route::default();
+            let p = RouteParams {
+                cell_m: 0.2,
+                radius_m: 0.15,
+                cost_weight: 1.0,
+                swing_m: 0.0,
+                swing_weight: 0.0,
+                suspect_weight: 0.0,
+                end_m: 0.0,
+                settle_within_m: 0.0,
+            };
+            route.build(&p, grid, &classes, &vec![0; 3600], goal);
+            let mut least = Vec::new();
+            route.least_within(route.rings_for(radius), &mut least);
+            let floor = route.value_floor(&least, radius);
+            proptest::prop_assume!(floor.is_finite());
+            for i in 0..=40 {
+                for j in 0..64 {
+                    let (r, a) = (radius * f64::from(i) / 40.0, f64::from(j) * 0.098_174_77);
+                    let (x, y) = ((r * a.cos()) as f32, (r * a.sin()) as f32);
+                    let v = f64::from(route.value(x, y));
+                    proptest::prop_assert!(v >= floor, "{v} < {floor} at ({x}, {y})");
+                }
+            }
         }
     }
 
