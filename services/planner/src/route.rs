@@ -564,7 +564,10 @@ impl Route {
         for r in lo..hi {
             for c in lo..hi {
                 let (dr, dc) = (r as f32 + 0.5 - mid, c as f32 + 0.5 - mid);
-                let ring = dr.hypot(dc).ceil() as usize;
+                // the ceiling of the centre's distance, without libm (never a whole number:
+                // the offsets are halves)
+                let s = (dr * dr + dc * dc).sqrt();
+                let ring = s as usize + 1;
                 if ring <= rings {
                     let d = self.dist[r * n + c];
                     out[ring] = out[ring].min(d);
