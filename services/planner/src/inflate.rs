@@ -208,9 +208,7 @@ pub fn plan_cost(
                 let at = ((r + reach) as isize + dr as isize) as usize * w
                     + (reach as isize + dc as isize) as usize
                     + span.start;
-                for (o, &m) in out[at..at + src.len()].iter_mut().zip(src) {
-                    *o = (*o).max(m & cost);
-                }
+                dilate_span(&mut out[at..at + src.len()], src, cost);
             }
         }
     }
@@ -221,6 +219,38 @@ pub fn plan_cost(
         }
     }
     out.truncate(classes.len());
+}
+
+/// `out[i] = max(out[i], mask[i] & cost)` over a span, 16 cells at a time. A span's last
+/// cells are taken as one more whole chunk that overlaps the one before it: taking a maximum
+/// twice changes nothing, and no cell is then left to a scalar loop.
+#[inline]
+fn dilate_span(out: &mut [u8], mask: &[u8], cost: u8) {
+    const W: usize = 16;
+    let n = out.len().min(mask.len());
+    if n < W {
+        for (o, &m) in out[..n].iter_mut().zip(&mask[..n]) {
+            *o = (*o).max(m & cost);
+        }
+        return;
+    }
+    let chunk = |o: &mut [u8], m: &[u8]| {
+        let (o, m): (&mut [u8; W], &[u8; W]) = match (o.try_into(), m.try_into()) {
+            (Ok(o), Ok(m)) => (o, m),
+            _ => return,
+        };
+        for i in 0..W {
+            o[i] = o[i].max(m[i] & cost);
+        }
+    };
+    let mut i = 0;
+    while i + W <= n {
+        chunk(&mut out[i..i + W], &mask[i..i + W]);
+        i += W;
+    }
+    if i < n {
+        chunk(&mut out[n - W..n], &mask[n - W..n]);
+    }
 }
 
 #[cfg(test)]
