@@ -7,8 +7,9 @@
 //!
 //! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
 //! speed-up must leave them the same) — short enough to count instructions under
-//! `valgrind --tool=callgrind`; `PLAN_BENCH_ADAPTIVE=1` leaves out the uniform baseline. With `PLAN_BENCH_MAPS=DIR` the maps are kept in DIR after the
-//! first run and read back after, so a run under callgrind simulates nothing:
+//! `valgrind --tool=callgrind`; `PLAN_BENCH_ADAPTIVE=1` leaves out the uniform baseline. With
+//! `PLAN_BENCH_MAPS=DIR` the maps are kept in DIR after the first run and read back after, so a
+//! run under callgrind simulates nothing:
 //!
 //! ```sh
 //! PLAN_BENCH=digest PLAN_BENCH_MAPS=$PWD/target/plan-maps cargo bench -p mimnav-planner --bench plan

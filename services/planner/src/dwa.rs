@@ -296,7 +296,8 @@ fn search(
     let bound = |v: f64| {
         let least_to_go = match route {
             Some(r) => r.value_floor(&least, horizon_m(v)),
-            None => (goal.0.hypot(goal.1) - horizon_m(v)) * (1.0 - 1e-9) - 1e-9,
+            // the straight line: no nearer than the goal's distance less the reach, nor 0
+            None => (goal.0.hypot(goal.1) - horizon_m(v)).max(0.0) * (1.0 - 1e-9),
         };
         pl.goal_weight * least_to_go.min(start_to_go) + pl.speed_weight * (max_v - v)
     };

@@ -235,6 +235,7 @@ fn dilate_span(out: &mut [u8], mask: &[u8], cost: u8) {
         return;
     }
     let chunk = |o: &mut [u8], m: &[u8]| {
+        // (both are always W long: the arrays let the compiler drop the bounds checks)
         let (o, m): (&mut [u8; W], &[u8; W]) = match (o.try_into(), m.try_into()) {
             (Ok(o), Ok(m)) => (o, m),
             _ => return,

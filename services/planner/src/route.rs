@@ -564,8 +564,9 @@ impl Route {
         for r in lo..hi {
             for c in lo..hi {
                 let (dr, dc) = (r as f32 + 0.5 - mid, c as f32 + 0.5 - mid);
-                // the ceiling of the centre's distance, without libm (never a whole number:
-                // the offsets are halves)
+                // the ceiling of the centre's distance without libm, or one more where the
+                // distance is whole (an odd grid): a point within i − 2.2 cells interpolates
+                // only cells nearer than i, whose ring this never puts above i
                 let s = (dr * dr + dc * dc).sqrt();
                 let ring = s as usize + 1;
                 if ring <= rings {
