@@ -245,6 +245,11 @@ impl Lockstep {
         &self.sim
     }
 
+    /// The pilot: its planner's cost and route of the last map (debugging, `examples/trace.rs`).
+    pub fn pilot(&self) -> &Pilot {
+        &self.pilot
+    }
+
     /// The simulator, to command the base with [`Drive::External`].
     pub fn sim_mut(&mut self) -> &mut Sim {
         &mut self.sim

@@ -50,6 +50,11 @@ fn run() -> anyhow::Result<()> {
         None => 10,
     };
     let every = every.max(1);
+    // TRACE_NEAR=K: the classes within K cells of the robot as text, and the route's lengths
+    let near: usize = std::env::var("TRACE_NEAR")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0);
     let config_path = config_path.map(PathBuf::from);
     let config =
         Config::resolve(config_path.as_deref(), &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -85,6 +90,9 @@ fn run() -> anyhow::Result<()> {
             pose.rotation.angle(),
             cmd
         );
+        if near > 0 && n % every == 0 {
+            print_near(grid, run.classes(), run.pilot().planner().route(), near);
+        }
         if n % every == 0 {
             img.write_png(&out.join(format!("rev{n:04}.png")))?;
         }
@@ -98,4 +106,43 @@ fn run() -> anyhow::Result<()> {
     }
     println!("outcome {:?}", run.sim().outcome());
     Ok(())
+}
+
+/// The classes within `near` cells of the robot (the map's centre; x, forward, up), one
+/// character a cell: `.` free, `#` solid, `,` passable, `G` glass, `s` suspected glass, blank
+/// unknown, `@` the robot's cell; then the route's length to the goal at the robot and 0.5 m
+/// from it every 45° (0°: ahead, 90°: left).
+fn print_near(
+    grid: mimnav_shared::grid::GridSpec,
+    classes: &[u8],
+    route: &mimnav_planner::route::Route,
+    near: usize,
+) {
+    use mimnav_shared::topics::cell_class;
+    let Some((r0, c0)) = grid.cell_of(0.0, 0.0) else {
+        return;
+    };
+    // rows run along x (forward), columns along y: print x decreasing down, y decreasing right
+    for r in (r0.saturating_sub(near)..=(r0 + near).min(grid.cells - 1)).rev() {
+        let line: String = (c0.saturating_sub(near)..=(c0 + near).min(grid.cells - 1))
+            .rev()
+            .map(|c| match classes[grid.index(r, c)] {
+                _ if (r, c) == (r0, c0) => '@',
+                cell_class::FREE => '.',
+                cell_class::SOLID => '#',
+                cell_class::PASSABLE => ',',
+                cell_class::GLASS => 'G',
+                cell_class::SUSPECTED_GLASS => 's',
+                _ => ' ',
+            })
+            .collect();
+        println!("  |{line}|");
+    }
+    let ring: Vec<String> = (0..8)
+        .map(|k| {
+            let a = f32::from(k as u8) * std::f32::consts::FRAC_PI_4;
+            format!("{:.2}", route.value(0.5 * a.cos(), 0.5 * a.sin()))
+        })
+        .collect();
+    println!("  route {:.2}; at 0.5 m, 0°..315°: {}", route.value(0.0, 0.0), ring.join(" "));
 }
