@@ -144,5 +144,9 @@ fn print_near(
             format!("{:.2}", route.value(0.5 * a.cos(), 0.5 * a.sin()))
         })
         .collect();
-    println!("  route {:.2}; at 0.5 m, 0°..315°: {}", route.value(0.0, 0.0), ring.join(" "));
+    println!(
+        "  route {:.2}; at 0.5 m, 0°..315°: {}",
+        route.value(0.0, 0.0),
+        ring.join(" ")
+    );
 }
