@@ -113,6 +113,10 @@ pub struct PlannerConfig {
     pub look_after_s: f64,
     /// How long one look lasts at most, s.
     pub look_s: f64,
+    /// Look only at an opening seen in part: suspected glass on a line with a seen gap of free
+    /// cells beside it (a door faced off its middle). Off: at any suspected glass the route
+    /// runs into.
+    pub look_openings_only: bool,
     /// A robot whose route has led it no nearer the goal (by `0.5 m`) for this long plans with
     /// `tight_margin_m` from solids instead of `margin_m` (glass keeps `margin_m`) for
     /// `tight_s` (flag `tight`): a gap the body fits through with less than the margin on each
@@ -168,8 +172,9 @@ impl Default for PlannerConfig {
             recovery_s: 2.0,
             recovery_mps: 0.15,
             recovery_max: 4,
-            look_after_s: 0.0,
+            look_after_s: 3.0,
             look_s: 8.0,
+            look_openings_only: true,
             look_max: 4,
             tight_after_s: 3.0,
             tight_margin_m: 0.05,

@@ -33,6 +33,10 @@ pub struct Stretch {
     pub from_m: f64,
     /// See `from_m`.
     pub to_m: f64,
+    /// The line has a gap of free cells next to the suspected ones: an opening seen in part
+    /// (the mapper clears a pane's line only where a beam crossed it squarely, so the rest of
+    /// a door the robot faced stays suspected), not a pane never faced at all.
+    pub opening: bool,
 }
 
 /// Follows the route downhill from the robot (the map's centre) in steps of a map cell for up
@@ -171,11 +175,52 @@ pub fn stretch_at(
         from_m = from_m.min(s);
         to_m = to_m.max(s);
     }
+    let opening = seen_gap(classes, grid, &pts, (mx, my), dir);
     Some(Stretch {
         point: at,
         dir,
         from_m,
         to_m,
+        opening,
+    })
+}
+
+/// Whether the line through `centre` along `dir` has, between two of its glass or suspected
+/// cells `pts` (at least one of them suspected), a gap at least two cells long whose cells on
+/// the line are all free: seen open, not unknown and not a frame.
+fn seen_gap(
+    classes: &[u8],
+    grid: GridSpec,
+    pts: &[(f64, f64, bool)],
+    centre: (f64, f64),
+    dir: (f64, f64),
+) -> bool {
+    let cell = f64::from(grid.cell_m);
+    // the cells on the line (within a cell and a half of it), by their place along it
+    let mut on: Vec<(f64, bool)> = pts
+        .iter()
+        .filter_map(|p| {
+            let (dx, dy) = (p.0 - centre.0, p.1 - centre.1);
+            let across = (-dir.1 * dx + dir.0 * dy).abs();
+            (across <= 1.5 * cell).then_some((dx * dir.0 + dy * dir.1, p.2))
+        })
+        .collect();
+    on.sort_by(|a, b| a.0.total_cmp(&b.0));
+    on.windows(2).any(|w| {
+        let ((a, a_suspected), (b, b_suspected)) = (w[0], w[1]);
+        // a diagonal line's neighbouring cells lie up to √2 cells apart along it
+        if b - a < 2.5 * cell || !(a_suspected || b_suspected) {
+            return false;
+        }
+        // the gap's inside, a cell clear of the cells at its ends
+        let (a, b) = (a + cell, b - cell);
+        let steps = ((b - a) / (0.5 * cell)).ceil().max(1.0) as usize;
+        (0..=steps).all(|k| {
+            let s = a + (b - a) * k as f64 / steps as f64;
+            let (x, y) = (centre.0 + s * dir.0, centre.1 + s * dir.1);
+            grid.cell_of(x as f32, y as f32)
+                .is_some_and(|(r, c)| classes[grid.index(r, c)] == cell_class::FREE)
+        })
     })
 }
 
@@ -305,6 +350,78 @@ mod tests {
         let route = route_to(&classes, (4.0, 0.0));
         assert!(route.value(0.0, 0.0).is_finite());
         assert_eq!(route_meets_suspected(&route, &classes, g, 4.0, 0.6), None);
+    }
+
+    #[test]
+    fn a_door_seen_in_part_is_an_opening_and_an_unfaced_one_is_not() {
+        let g = grid();
+        let classes = pane();
+        let at = (2.05, 0.45);
+        // suspected from y = -0.05 to 1.05, glass either side: never faced
+        let s = stretch_at(&classes, g, at, 1.5).expect("a line");
+        assert!(!s.opening, "{s:?}");
+        // the middle of the door seen open (free), the rest still suspected: an opening
+        let mut seen = classes.clone();
+        for k in 3..7 {
+            if let Some((r, c)) = g.cell_of(2.05, k as f32 * 0.1 + 0.05) {
+                seen[g.index(r, c)] = cell_class::FREE;
+            }
+        }
+        assert!(stretch_at(&seen, g, at, 1.5).expect("a line").opening);
+        // a one-cell gap is the line's own raggedness, not an opening
+        let mut ragged = classes.clone();
+        if let Some((r, c)) = g.cell_of(2.05, 0.45) {
+            ragged[g.index(r, c)] = cell_class::FREE;
+        }
+        assert!(!stretch_at(&ragged, g, at, 1.5).expect("a line").opening);
+        // a gap not seen (unknown) or closed by a frame (solid) is none either
+        for class in [cell_class::UNKNOWN, cell_class::SOLID] {
+            let mut other = seen.clone();
+            for k in 3..7 {
+                if let Some((r, c)) = g.cell_of(2.05, k as f32 * 0.1 + 0.05) {
+                    other[g.index(r, c)] = class;
+                }
+            }
+            assert!(!stretch_at(&other, g, at, 1.5).expect("a line").opening);
+        }
+        // a gap between two glass stretches, no suspected glass beside it: a door already seen
+        let mut glass = seen.clone();
+        for c in glass.iter_mut() {
+            if *c == cell_class::SUSPECTED_GLASS {
+                *c = cell_class::GLASS;
+            }
+        }
+        assert!(!stretch_at(&glass, g, at, 1.5).expect("a line").opening);
+    }
+
+    #[test]
+    fn a_diagonal_line_is_no_gap_but_a_door_in_it_is() {
+        // a pane at 35° through (2, 0), suspected, its cells as the mapper draws them
+        let g = grid();
+        let mut classes = vec![cell_class::FREE; g.len()];
+        let (dx, dy) = (35f64.to_radians().cos(), 35f64.to_radians().sin());
+        let mark = |classes: &mut Vec<u8>, t: f64, class: u8| {
+            if let Some((r, c)) = g.cell_of((2.0 + t * dy) as f32, (t * dx) as f32) {
+                classes[g.index(r, c)] = class;
+            }
+        };
+        for k in -150..150 {
+            mark(
+                &mut classes,
+                f64::from(k) * 0.01,
+                cell_class::SUSPECTED_GLASS,
+            );
+        }
+        let at = (2.0, 0.0);
+        assert!(!stretch_at(&classes, g, at, 1.5).expect("a line").opening);
+        for k in -20..20 {
+            mark(&mut classes, f64::from(k) * 0.01, cell_class::FREE);
+        }
+        assert!(
+            stretch_at(&classes, g, (2.0 + 0.5 * dy, 0.5 * dx), 1.5)
+                .expect("a line")
+                .opening
+        );
     }
 
     #[test]

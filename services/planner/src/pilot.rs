@@ -717,7 +717,8 @@ impl Pilot {
         let route = self.planner.route();
         let at =
             crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)?;
-        let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)?;
+        let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)
+            .filter(|s| s.opening || !self.params().planner.look_openings_only)?;
         // first towards the stretch's end farther from the robot's own foot on the line, then
         // back and forth
         let foot = -(s.point.0 * s.dir.0 + s.point.1 * s.dir.1);
