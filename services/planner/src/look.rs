@@ -37,6 +37,8 @@ pub struct Stretch {
     /// (the mapper clears a pane's line only where a beam crossed it squarely, so the rest of
     /// a door the robot faced stays suspected), not a pane never faced at all.
     pub opening: bool,
+    /// The widest such gap's free width, m (0 without one).
+    pub seen_m: f64,
 }
 
 /// Follows the route downhill from the robot (the map's centre) in steps of a map cell for up
@@ -175,26 +177,28 @@ pub fn stretch_at(
         from_m = from_m.min(s);
         to_m = to_m.max(s);
     }
-    let opening = seen_gap(classes, grid, &pts, (mx, my), dir);
+    let seen_m = seen_gap(classes, grid, &pts, (mx, my), dir);
+    let opening = seen_m > 0.0;
     Some(Stretch {
         point: at,
         dir,
         from_m,
         to_m,
         opening,
+        seen_m,
     })
 }
 
-/// Whether the line through `centre` along `dir` has, between two of its glass or suspected
-/// cells `pts` (at least one of them suspected), a gap at least two cells long whose cells on
-/// the line are all free: seen open, not unknown and not a frame.
+/// The free width of the widest gap the line through `centre` along `dir` has between two of
+/// its glass or suspected cells `pts` (at least one of them suspected), at least two cells long,
+/// whose cells on the line are all free: seen open, not unknown and not a frame (0: none).
 fn seen_gap(
     classes: &[u8],
     grid: GridSpec,
     pts: &[(f64, f64, bool)],
     centre: (f64, f64),
     dir: (f64, f64),
-) -> bool {
+) -> f64 {
     let cell = f64::from(grid.cell_m);
     // the cells on the line (within a cell and a half of it), by their place along it
     let mut on: Vec<(f64, bool)> = pts
@@ -206,7 +210,7 @@ fn seen_gap(
         })
         .collect();
     on.sort_by(|a, b| a.0.total_cmp(&b.0));
-    on.windows(2).any(|w| {
+    let free = on.windows(2).filter(|w| {
         let ((a, a_suspected), (b, b_suspected)) = (w[0], w[1]);
         // a diagonal line's neighbouring cells lie up to √2 cells apart along it
         if b - a < 2.5 * cell || !(a_suspected || b_suspected) {
@@ -221,7 +225,9 @@ fn seen_gap(
             grid.cell_of(x as f32, y as f32)
                 .is_some_and(|(r, c)| classes[grid.index(r, c)] == cell_class::FREE)
         })
-    })
+    });
+    // the free width: between the cells' edges, not their centres
+    free.map(|w| w[1].0 - w[0].0 - cell).fold(0.0, f64::max)
 }
 
 /// The map cell nearest (x, y), for a window that reaches past the map's edge.
@@ -367,7 +373,9 @@ mod tests {
                 seen[g.index(r, c)] = cell_class::FREE;
             }
         }
-        assert!(stretch_at(&seen, g, at, 1.5).expect("a line").opening);
+        let door = stretch_at(&seen, g, at, 1.5).expect("a line");
+        // four free cells between the suspected ones
+        assert!(door.opening && (door.seen_m - 0.4).abs() < 0.01, "{door:?}");
         // a one-cell gap is the line's own raggedness, not an opening
         let mut ragged = classes.clone();
         if let Some((r, c)) = g.cell_of(2.05, 0.45) {

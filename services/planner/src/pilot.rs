@@ -717,8 +717,13 @@ impl Pilot {
         let route = self.planner.route();
         let at =
             crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)?;
+        // a door seen in part, its seen gap still too narrow for the footprint
+        let (only, wide) = (
+            self.params().planner.look_openings_only,
+            2.0 * footprint + f64::from(grid.cell_m),
+        );
         let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)
-            .filter(|s| s.opening || !self.params().planner.look_openings_only)?;
+            .filter(|s| !only || (s.opening && s.seen_m < wide))?;
         // first towards the stretch's end farther from the robot's own foot on the line, then
         // back and forth
         let foot = -(s.point.0 * s.dir.0 + s.point.1 * s.dir.1);
