@@ -90,10 +90,10 @@ fn run() -> anyhow::Result<()> {
             pose.rotation.angle(),
             cmd
         );
-        if near > 0 && n % every == 0 {
-            print_near(grid, run.classes(), run.pilot().planner().route(), near);
-        }
         if n % every == 0 {
+            if near > 0 {
+                print_near(grid, run.classes(), run.pilot().planner().route(), near);
+            }
             img.write_png(&out.join(format!("rev{n:04}.png")))?;
         }
         frames.push((n, img));

@@ -33,12 +33,24 @@ pub struct Stretch {
     pub from_m: f64,
     /// See `from_m`.
     pub to_m: f64,
+    /// The free width of the widest gap of free cells the line has next to the suspected ones,
+    /// m (0: none; see [`Stretch::opening`]).
+    pub seen_m: f64,
+}
+
+impl Stretch {
     /// The line has a gap of free cells next to the suspected ones: an opening seen in part
     /// (the mapper clears a pane's line only where a beam crossed it squarely, so the rest of
     /// a door the robot faced stays suspected), not a pane never faced at all.
-    pub opening: bool,
-    /// The widest such gap's free width, m (0 without one).
-    pub seen_m: f64,
+    pub fn opening(&self) -> bool {
+        self.seen_m > 0.0
+    }
+
+    /// Worth a look: with `openings_only`, a door seen in part whose seen gap is still
+    /// narrower than `wide_m` (what the footprint needs); else any suspected stretch.
+    pub fn worth_a_look(&self, openings_only: bool, wide_m: f64) -> bool {
+        !openings_only || (self.opening() && self.seen_m < wide_m)
+    }
 }
 
 /// Follows the route downhill from the robot (the map's centre) in steps of a map cell for up
@@ -177,15 +189,12 @@ pub fn stretch_at(
         from_m = from_m.min(s);
         to_m = to_m.max(s);
     }
-    let seen_m = seen_gap(classes, grid, &pts, (mx, my), dir);
-    let opening = seen_m > 0.0;
     Some(Stretch {
         point: at,
         dir,
         from_m,
         to_m,
-        opening,
-        seen_m,
+        seen_m: seen_gap(classes, grid, &pts, (mx, my), dir),
     })
 }
 
@@ -365,7 +374,7 @@ mod tests {
         let at = (2.05, 0.45);
         // suspected from y = -0.05 to 1.05, glass either side: never faced
         let s = stretch_at(&classes, g, at, 1.5).expect("a line");
-        assert!(!s.opening, "{s:?}");
+        assert!(!s.opening(), "{s:?}");
         // the middle of the door seen open (free), the rest still suspected: an opening
         let mut seen = classes.clone();
         for k in 3..7 {
@@ -375,13 +384,19 @@ mod tests {
         }
         let door = stretch_at(&seen, g, at, 1.5).expect("a line");
         // four free cells between the suspected ones
-        assert!(door.opening && (door.seen_m - 0.4).abs() < 0.01, "{door:?}");
+        assert!(
+            door.opening() && (door.seen_m - 0.4).abs() < 0.01,
+            "{door:?}"
+        );
+        // looked at while that gap is narrower than the footprint needs, not once it is wider
+        assert!(door.worth_a_look(true, 0.6) && !door.worth_a_look(true, 0.35));
+        assert!(!s.worth_a_look(true, 0.6) && s.worth_a_look(false, 0.6));
         // a one-cell gap is the line's own raggedness, not an opening
         let mut ragged = classes.clone();
         if let Some((r, c)) = g.cell_of(2.05, 0.45) {
             ragged[g.index(r, c)] = cell_class::FREE;
         }
-        assert!(!stretch_at(&ragged, g, at, 1.5).expect("a line").opening);
+        assert!(!stretch_at(&ragged, g, at, 1.5).expect("a line").opening());
         // a gap not seen (unknown) or closed by a frame (solid) is none either
         for class in [cell_class::UNKNOWN, cell_class::SOLID] {
             let mut other = seen.clone();
@@ -390,7 +405,7 @@ mod tests {
                     other[g.index(r, c)] = class;
                 }
             }
-            assert!(!stretch_at(&other, g, at, 1.5).expect("a line").opening);
+            assert!(!stretch_at(&other, g, at, 1.5).expect("a line").opening());
         }
         // a gap between two glass stretches, no suspected glass beside it: a door already seen
         let mut glass = seen.clone();
@@ -399,7 +414,7 @@ mod tests {
                 *c = cell_class::GLASS;
             }
         }
-        assert!(!stretch_at(&glass, g, at, 1.5).expect("a line").opening);
+        assert!(!stretch_at(&glass, g, at, 1.5).expect("a line").opening());
     }
 
     #[test]
@@ -421,14 +436,14 @@ mod tests {
             );
         }
         let at = (2.0, 0.0);
-        assert!(!stretch_at(&classes, g, at, 1.5).expect("a line").opening);
+        assert!(!stretch_at(&classes, g, at, 1.5).expect("a line").opening());
         for k in -20..20 {
             mark(&mut classes, f64::from(k) * 0.01, cell_class::FREE);
         }
         assert!(
             stretch_at(&classes, g, (2.0 + 0.5 * dy, 0.5 * dx), 1.5)
                 .expect("a line")
-                .opening
+                .opening()
         );
     }
 

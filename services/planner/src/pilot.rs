@@ -723,7 +723,7 @@ impl Pilot {
             2.0 * footprint + f64::from(grid.cell_m),
         );
         let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)
-            .filter(|s| !only || (s.opening && s.seen_m < wide))?;
+            .filter(|s| s.worth_a_look(only, wide))?;
         // first towards the stretch's end farther from the robot's own foot on the line, then
         // back and forth
         let foot = -(s.point.0 * s.dir.0 + s.point.1 * s.dir.1);
