@@ -165,6 +165,10 @@ impl Deskew {
     }
 }
 
+/// A near-horizontal ring's return: its intensity and range, its de-skewed position (x, y) and
+/// the de-skewed position the sensor fired it from.
+type RingEntry = (RingReturn, f32, f32, (f32, f32));
+
 /// What one update found.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct UpdateStats {
@@ -252,8 +256,9 @@ pub struct Mapper {
     /// at the next revolution's start).
     surface_candidate: Vec<bool>,
     last_pose: Option<Pose2>,
-    /// Per zero-layer laser, in firing order: each strongest return and its de-skewed position.
-    rings: Vec<Vec<(RingReturn, f32, f32)>>,
+    /// Per zero-layer laser, in firing order: each strongest return, its de-skewed position and
+    /// where the sensor was when it fired (de-skewed the same way: the beam ran from there).
+    rings: Vec<Vec<RingEntry>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
     last_rings: Vec<Vec<LastReturn>>,
     /// Per ring: the returns whose window has been counted.
@@ -390,6 +395,12 @@ impl Mapper {
     /// Class of every cell ([`cell_class`]), row-major.
     pub fn classes(&self) -> &[u8] {
         &self.classes
+    }
+
+    /// The last revolution's glass spike sightings (robot frame: each spike's centre and the
+    /// pane's normal).
+    pub fn sightings(&self) -> &[Sighting] {
+        &self.sightings
     }
 
     /// Planning cost of every cell, 0–255.
@@ -609,6 +620,11 @@ impl Mapper {
             .round()
             .clamp(0.0, 255.0) as u8;
         let deskew = v != 0.0 || omega != 0.0;
+        // the sensor on the robot: where every beam starts, before the de-skew
+        let (mount_x, mount_y) = (
+            self.params.robot.mount.x_m as f32,
+            self.params.robot.mount.y_m as f32,
+        );
         for (k, p0) in points.iter().enumerate() {
             let mut p = *p0;
             let mut az_cdeg = p.azimuth_cdeg;
@@ -638,6 +654,9 @@ impl Mapper {
                 && in_layer(&zero_b, p.z, sin_el)
                 && let Some(ring) = self.rings.get_mut(usize::from(p.laser_id))
             {
+                // a moving sensor fired this beam from behind where the revolution ends
+                let x = mount_x - shift;
+                let origin = (cos_t * x + sin_t * mount_y, -sin_t * x + cos_t * mount_y);
                 ring.push((
                     RingReturn {
                         azimuth_deg: f32::from(az_cdeg) * 0.01,
@@ -646,6 +665,7 @@ impl Mapper {
                     },
                     p.x,
                     p.y,
+                    origin,
                 ));
             }
             // a dual pair that differs (last, then strongest, same firing): the nearer return
@@ -812,22 +832,26 @@ impl Mapper {
             );
             for (pn, n) in index.iter().enumerate() {
                 if let Some(n) = *n {
-                    let (rr, x, y) = ring[n];
+                    let (rr, x, y, origin) = ring[n];
                     rays.push(RayReturn {
                         azimuth_deg: rr.azimuth_deg.rem_euclid(360.0),
                         x,
                         y,
                         spike: self.spikes[pn],
+                        origin,
                     });
                 }
             }
             for &(first, last) in &self.runs {
                 let owner = self.sightings.len() as u32;
                 let (mut sx, mut sy, mut count, mut seen) = (0.0f64, 0.0f64, 0usize, 0usize);
+                let (mut fx, mut fy) = (0.0f64, 0.0f64);
                 for n in index[first..=last].iter().flatten() {
-                    let (_, x, y) = ring[*n];
+                    let (_, x, y, (ox, oy)) = ring[*n];
                     sx += f64::from(x);
                     sy += f64::from(y);
+                    fx += f64::from(ox);
+                    fy += f64::from(oy);
                     count += 1;
                     if let Some((r, c)) = grid.cell_of(x, y) {
                         let i = grid.index(r, c);
@@ -847,13 +871,18 @@ impl Mapper {
                     continue;
                 }
                 let (cx, cy) = (sx / count as f64, sy / count as f64);
-                let d = cx.hypot(cy);
+                // the normal is the beam at the spike's centre, from where the sensor fired it:
+                // taken from the revolution's end instead, a robot driving past a pane at
+                // 0.6 m/s tilted it by up to 10° (the sensor moves 6 cm in a revolution), and
+                // the line drawn ahead along that normal ran into Spot's front corner
+                let (bx, by) = (cx - fx / count as f64, cy - fy / count as f64);
+                let d = bx.hypot(by);
                 if d > 1e-3 {
                     self.sightings.push(Sighting {
                         x: cx,
                         y: cy,
-                        nx: cx / d,
-                        ny: cy / d,
+                        nx: bx / d,
+                        ny: by / d,
                     });
                 } else {
                     // no direction: drop its points

@@ -86,6 +86,9 @@ pub struct RayReturn {
     pub y: f32,
     /// Part of an intensity spike.
     pub spike: bool,
+    /// Where the sensor fired the beam from, m (robot frame, de-skewed as the return: a moving
+    /// sensor fires from behind where the revolution ends).
+    pub origin: (f32, f32),
 }
 
 /// One near-horizontal ring, in firing order, with the index of its first return in each whole
@@ -338,6 +341,9 @@ impl Panes {
             let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
             let open = &mut p.open;
             let half_deg = normal_rad.to_degrees() + 1.0;
+            // the line's signed offset from the sensor where the revolution ends, along the
+            // normal: a beam fired from elsewhere is as far from the line as its origin
+            let (cn, sn) = (nx / d, ny / d);
             for ring in rings {
                 // a spike near the normal: glass is there, and the beams beside it are at the
                 // edge of its cone (or beyond the pane's end, which the next revolutions see
@@ -348,19 +354,30 @@ impl Panes {
                     continue;
                 }
                 ring.around(centre_deg, half_deg, |r| {
-                    let bearing = f64::from(r.y).atan2(f64::from(r.x));
+                    // the beam, from where it was fired (robot frame)
+                    let (bx, by) = (r.origin.0, r.origin.1);
+                    let (rx, ry) = (f64::from(r.x - bx), f64::from(r.y - by));
+                    let bearing = ry.atan2(rx);
                     let off = wrap(bearing - normal_bearing);
                     if off.abs() > normal_rad {
                         return;
                     }
-                    let t = d / off.cos();
-                    if f64::from(r.x).hypot(f64::from(r.y)) < t + BEYOND_M {
+                    // the origin in the odometry frame, and its distance to the line
+                    let (c, s) = (yaw.cos(), yaw.sin());
+                    let (gx, gy) = (f64::from(bx), f64::from(by));
+                    let (ox, oy) = (sx + c * gx - s * gy, sy + s * gx + c * gy);
+                    let d_origin = d - ((ox - sx) * cn + (oy - sy) * sn);
+                    if d_origin < MIN_TEST_M {
+                        return;
+                    }
+                    let t = d_origin / off.cos();
+                    if rx.hypot(ry) < t + BEYOND_M {
                         return;
                     }
                     // where the beam crossed the line (odometry frame)
                     let b = bearing + yaw;
-                    let (ox, oy) = (sx + t * b.cos(), sy + t * b.sin());
-                    open.insert(key(ox, oy, cell_m), (ox, oy, now_ns));
+                    let (cx, cy) = (ox + t * b.cos(), oy + t * b.sin());
+                    open.insert(key(cx, cy, cell_m), (cx, cy, now_ns));
                 });
             }
         }
@@ -556,4 +573,62 @@ impl Panes {
 fn wrap(a: f64) -> f64 {
     let t = (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI);
     t - std::f64::consts::PI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mimnav_shared::pose::pose2;
+
+    /// A pane along y = −0.5 m beside a robot at the origin heading along x.
+    fn pane_beside() -> Panes {
+        let mut panes = Panes::new(0.05);
+        let sighting = Sighting {
+            x: 0.0,
+            y: -0.5,
+            nx: 0.0,
+            ny: -1.0,
+        };
+        let at = pose2(0.0, 0.0, 0.0);
+        panes.observe(&at, 1, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+        assert_eq!(panes.len(), 1);
+        panes
+    }
+
+    /// The opening evidence one return without a spike leaves: its ring holds only it.
+    fn open_after(x: f32, y: f32, origin: (f32, f32)) -> Vec<(f64, f64)> {
+        let mut panes = pane_beside();
+        let mut ring = Ring::default();
+        ring.clear();
+        let azimuth_deg = (-(y - origin.1).atan2(x - origin.0).to_degrees()).rem_euclid(360.0);
+        ring.push(RayReturn {
+            azimuth_deg,
+            x,
+            y,
+            spike: false,
+            origin,
+        });
+        let at = pose2(0.0, 0.0, 0.0);
+        panes.observe(&at, 2, &[], &[], &[ring], 2f64.to_radians(), 10.0);
+        panes.panes[0]
+            .open
+            .values()
+            .map(|&(x, y, _)| (x, y))
+            .collect()
+    }
+
+    #[test]
+    fn a_beam_opens_a_pane_only_if_it_crossed_squarely_from_where_it_was_fired() {
+        // the sensor fired 6 cm behind where the revolution ends (driving at 0.6 m/s)
+        let behind = (-0.06, 0.0);
+        // squarely across the line from there: open where it crossed
+        let open = open_after(-0.06, -1.0, behind);
+        assert_eq!(open.len(), 1, "{open:?}");
+        assert!((open[0].0 + 0.06).abs() < 1e-6 && (open[0].1 + 0.5).abs() < 1e-6);
+        // 4° off the normal from there (glass lets it through without a spike) — though from
+        // where the revolution ends it looks 0.6° off: no evidence either way
+        let (s, c) = 4f32.to_radians().sin_cos();
+        let open = open_after(-0.06 + s, -c, behind);
+        assert!(open.is_empty(), "{open:?}");
+    }
 }

@@ -312,6 +312,64 @@ fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
     );
 }
 
+/// A pane along the robot's way, 0.5 m to its right, seen squarely by laser 14 at 90° while
+/// the robot drives at `v`; the revolution ends `behind_ns` after those beams fired.
+fn pane_beside(behind_ns: u32) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for k in -40i32..=40 {
+        let az = 90.0 + k as f32 * 0.2;
+        let (s, c) = az.to_radians().sin_cos();
+        let (range, intensity) = if k.abs() <= 3 {
+            (0.5 / s, 200)
+        } else {
+            (8.0, 30)
+        };
+        pts.push(pt(
+            range * c,
+            -range * s,
+            -range * 1f32.to_radians().tan(),
+            intensity,
+            14,
+            BOTH,
+        ));
+    }
+    // the revolution's last firing, high on a wall ahead
+    let mut last = pt(5.0, 0.0, 1.0, 30, 15, BOTH);
+    last.time_offset_ns = behind_ns;
+    pts.push(last);
+    pts
+}
+
+#[test]
+fn a_spikes_normal_is_the_beam_from_where_the_moving_sensor_fired_it() {
+    let moving = |v: f64| {
+        OdomInput::Fresh(Odom {
+            v,
+            ..Odom::default()
+        })
+    };
+    let mut m = mapper();
+    // standing: the spike is at 90°, its normal straight to the right
+    m.update(&pane_beside(50_000_000), moving(0.0), 0);
+    let s = m.sightings();
+    assert_eq!(s.len(), 1, "{s:?}");
+    assert!(s[0].x.abs() < 0.01 && (s[0].y + 0.5).abs() < 0.01, "{s:?}");
+    assert!((s[0].ny + 1.0).abs() < 1e-4, "{s:?}");
+    // at 0.6 m/s the revolution ends 3 cm further on: the spike moves back by as much, the
+    // pane does not turn
+    let mut m = mapper();
+    m.update(&pane_beside(50_000_000), moving(0.6), 0);
+    let s = m.sightings();
+    assert_eq!(s.len(), 1, "{s:?}");
+    assert!((s[0].x + 0.03).abs() < 0.005, "de-skewed: {s:?}");
+    let tilt = s[0].nx.atan2(-s[0].ny).to_degrees();
+    assert!(
+        tilt.abs() < 0.3,
+        "the normal tilted {tilt:.2}° (from the revolution's end: {:.2}°)",
+        0.03f64.atan2(0.5).to_degrees()
+    );
+}
+
 #[test]
 fn equation_7_glass_memory_follows_the_odometry_and_survives_beams_through_it() {
     let mut m = mapper();
