@@ -171,7 +171,9 @@ fn a_foxglove_client_receives_the_points_and_the_map_the_stack_published() {
     let mut drv = driver(&domain, &["--set", "velodyne.replay_linger_s=1"]);
     let (mut counts, mut plans): (HashMap<u64, usize>, Plans) = Default::default();
     let until = Instant::now() + Duration::from_secs(20);
-    while plans.len() < 5 && Instant::now() < until {
+    // until both are in: the mapper maps a revolution from its slices and may publish its map
+    // before the driver has published the whole revolution on lidar/points
+    while (plans.len() < 5 || counts.len() < 5) && Instant::now() < until {
         plan.heard_within(Duration::from_millis(20));
         while let Some(s) = points.receive().expect("receive") {
             counts.insert(s.user_header().stamp_ns, s.payload().len());
