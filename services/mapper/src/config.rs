@@ -142,7 +142,7 @@ impl Default for MapperConfig {
             glass_range_tolerance_m: 0.3,
             glass_memory_s: 120.0,
             glass_memory_m: 8.0,
-            glass_normal_deg: 2.0,
+            glass_normal_deg: 2.8,
             glass_extend_m: 3.0,
             glass_mullion_m: 0.2,
             passable_cost: 0.2,
