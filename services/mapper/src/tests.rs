@@ -259,6 +259,19 @@ fn ground_points_do_not_make_obstacles_and_free_space_is_where_beams_reached() {
 
 /// A ring of the −1° laser (id 14) at 4 m with a glass spike straight ahead, and optionally
 /// returns of the −3° laser (id 12) at the same place.
+/// A return of laser 14 (−1°) at azimuth `az` (degrees, clockwise) and horizontal `range`.
+fn on_minus_1_deg(az: f32, range: f32, intensity: u8) -> Point {
+    let (s, c) = az.to_radians().sin_cos();
+    pt(
+        range * c,
+        -range * s,
+        -range * 1f32.to_radians().tan(),
+        intensity,
+        14,
+        BOTH,
+    )
+}
+
 fn glass_scene(with_minus_eps: bool) -> Vec<Point> {
     let mut pts = Vec::new();
     for k in -40i32..=40 {
@@ -266,14 +279,7 @@ fn glass_scene(with_minus_eps: bool) -> Vec<Point> {
         let (s, c) = az.to_radians().sin_cos();
         let spike = k.abs() <= 3;
         let (range, intensity) = if spike { (4.0, 200) } else { (8.0 / c, 30) };
-        pts.push(pt(
-            range * c,
-            -range * s,
-            -range * 1f32.to_radians().tan(),
-            intensity,
-            14,
-            BOTH,
-        ));
+        pts.push(on_minus_1_deg(az, range, intensity));
         if with_minus_eps && spike {
             pts.push(pt(
                 range * c,
@@ -318,20 +324,12 @@ fn pane_beside(behind_ns: u32) -> Vec<Point> {
     let mut pts = Vec::new();
     for k in -40i32..=40 {
         let az = 90.0 + k as f32 * 0.2;
-        let (s, c) = az.to_radians().sin_cos();
         let (range, intensity) = if k.abs() <= 3 {
-            (0.5 / s, 200)
+            (0.5 / az.to_radians().sin(), 200)
         } else {
             (8.0, 30)
         };
-        pts.push(pt(
-            range * c,
-            -range * s,
-            -range * 1f32.to_radians().tan(),
-            intensity,
-            14,
-            BOTH,
-        ));
+        pts.push(on_minus_1_deg(az, range, intensity));
     }
     // the revolution's last firing, high on a wall ahead
     let mut last = pt(5.0, 0.0, 1.0, 30, 15, BOTH);
