@@ -479,7 +479,8 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
             .collect()
     };
     let mut left = others();
-    for _ in 0..100 {
+    // 5 s: on a loaded 2-core machine a process was seen still leaving after 2 s
+    for _ in 0..250 {
         if left.is_empty() {
             break;
         }
@@ -488,7 +489,7 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
     }
     assert!(
         left.is_empty(),
-        "processes left 2 s after the stop: {left:?}"
+        "processes left 5 s after the stop: {left:?}"
     );
     let mut nodes = Vec::new();
     let _ = iceoryx2::prelude::Node::<ipc::Svc>::list(&config.iceoryx2, |state| {
