@@ -341,8 +341,8 @@ impl Panes {
             let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
             let open = &mut p.open;
             let half_deg = normal_rad.to_degrees() + 1.0;
-            // the line's signed offset from the sensor where the revolution ends, along the
-            // normal: a beam fired from elsewhere is as far from the line as its origin
+            // the unit normal towards the line: a beam fired from elsewhere than the sensor
+            // where the revolution ends is as far from the line as its origin
             let (cn, sn) = (nx / d, ny / d);
             for ring in rings {
                 // a spike near the normal: glass is there, and the beams beside it are at the
@@ -363,9 +363,7 @@ impl Panes {
                         return;
                     }
                     // the origin in the odometry frame, and its distance to the line
-                    let (c, s) = (yaw.cos(), yaw.sin());
-                    let (gx, gy) = (f64::from(bx), f64::from(by));
-                    let (ox, oy) = (sx + c * gx - s * gy, sy + s * gx + c * gy);
+                    let (ox, oy) = frame.to_odom(f64::from(bx), f64::from(by));
                     let d_origin = d - ((ox - sx) * cn + (oy - sy) * sn);
                     if d_origin < MIN_TEST_M {
                         return;

@@ -257,8 +257,6 @@ fn ground_points_do_not_make_obstacles_and_free_space_is_where_beams_reached() {
     );
 }
 
-/// A ring of the −1° laser (id 14) at 4 m with a glass spike straight ahead, and optionally
-/// returns of the −3° laser (id 12) at the same place.
 /// A return of laser 14 (−1°) at azimuth `az` (degrees, clockwise) and horizontal `range`.
 fn on_minus_1_deg(az: f32, range: f32, intensity: u8) -> Point {
     let (s, c) = az.to_radians().sin_cos();
@@ -272,6 +270,8 @@ fn on_minus_1_deg(az: f32, range: f32, intensity: u8) -> Point {
     )
 }
 
+/// A ring of the −1° laser (id 14) at 4 m with a glass spike straight ahead, and optionally
+/// returns of the −3° laser (id 12) at the same place.
 fn glass_scene(with_minus_eps: bool) -> Vec<Point> {
     let mut pts = Vec::new();
     for k in -40i32..=40 {
@@ -318,8 +318,8 @@ fn equation_6_glass_is_a_spike_the_minus_eps_layer_does_not_see() {
     );
 }
 
-/// A pane along the robot's way, 0.5 m to its right, seen squarely by laser 14 at 90° while
-/// the robot drives at `v`; the revolution ends `behind_ns` after those beams fired.
+/// A pane along the robot's way, 0.5 m to its right, seen squarely by laser 14 at 90°; the
+/// revolution ends `behind_ns` after those beams fired.
 fn pane_beside(behind_ns: u32) -> Vec<Point> {
     let mut pts = Vec::new();
     for k in -40i32..=40 {
