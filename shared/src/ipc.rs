@@ -16,7 +16,6 @@
 
 use std::fmt::Debug;
 
-use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -29,6 +28,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use crate::config::Common;
+use crate::signals;
 use crate::topics::{self, EVENT_END_OF_STREAM, EVENT_NEW_DATA};
 
 /// The service variant every process uses: inter-process.
@@ -114,46 +114,62 @@ fn topic_err(topic: &'static str, e: impl Debug) -> IpcError {
 ///
 /// iceoryx2 installs its signal handler on the first wait, not when the node is created; a
 /// SIGTERM before that would kill the process outright. So this function waits once for zero
-/// time: from then on SIGTERM and SIGINT only end the loops. (iceoryx2 reports a signal once and
-/// then clears it: callers must remember that they were asked to stop.)
+/// time: from then on SIGTERM and SIGINT only end the loops. iceoryx2 keeps only the last signal
+/// and clears it once read, so [`signals::install`] then puts a handler in front of it that
+/// remembers a stop request for good ([`signals::requested`]): [`run_waitset`] and [`sleep`]
+/// look at that.
 pub fn node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
     let node = create_node(config, name)?;
     let _ = node.wait(core::time::Duration::ZERO);
-    restore_fatal_signals();
+    signals::restore_fatal_signals();
+    signals::install();
     Ok(node)
-}
-
-/// iceoryx2's signal handler (installed by the first wait) catches SIGABRT and SIGQUIT as well as
-/// SIGTERM and SIGINT, and only records them. A hung loop would then survive systemd's watchdog
-/// signal (SIGABRT) until `TimeoutAbortSec=` ends it with SIGKILL, and without the core dump the
-/// watchdog's abort is for. Give both back their default action: end the process with a core.
-fn restore_fatal_signals() {
-    for signal in [libc::SIGABRT, libc::SIGQUIT] {
-        // SAFETY: SIG_DFL is always a valid disposition; no handler of ours is replaced
-        unsafe { libc::signal(signal, libc::SIG_DFL) };
-    }
 }
 
 /// Runs `waitset` until SIGTERM or SIGINT asks the process to stop, or `f` returns
 /// [`CallbackProgression::Stop`]. iceoryx2 reports any signal that cuts a wait short as
 /// `Interrupt` — a SIGCONT after a stop, a profiler's SIGPROF — which is not a request to stop:
-/// the wait is resumed (a SIGINT shows as a termination request on the next turn).
+/// the wait is resumed. A stop request is [`signals::requested`], looked at before every wait;
+/// the WaitSet also waits on [`signals::wake_fd`], so the request wakes it at once even when the
+/// signal went to another of the process's threads. `f` never sees that attachment.
 pub fn run_waitset<F>(waitset: &WaitSet<Svc>, mut f: F) -> Result<WaitSetRunResult, WaitSetRunError>
 where
     F: FnMut(WaitSetAttachmentId<Svc>) -> CallbackProgression,
 {
+    let wake = signals::wake_fd().and_then(crate::service::SocketFd::borrowed);
+    let guard = (wake.as_ref()).and_then(|fd| waitset.attach_notification(fd).ok());
     loop {
-        match waitset.wait_and_process(&mut f) {
-            Ok(WaitSetRunResult::Interrupt) => continue,
+        if signals::requested() {
+            return Ok(WaitSetRunResult::TerminationRequest);
+        }
+        let result = waitset.wait_and_process_once(|id| match &guard {
+            Some(g) if id.has_event_from(g) => CallbackProgression::Stop,
+            _ => f(id),
+        });
+        match result {
+            Ok(WaitSetRunResult::Interrupt | WaitSetRunResult::AllEventsHandled) => continue,
+            Ok(WaitSetRunResult::StopRequest) if signals::requested() => continue,
             other => return other,
         }
     }
 }
 
-/// Sleeps up to `d`; false once SIGTERM or SIGINT asked the process to stop. As with
-/// [`run_waitset`], a sleep cut short by any other signal is not a stop request.
+/// Sleeps up to `d`; false once SIGTERM or SIGINT asked the process to stop (before or during
+/// the sleep). As with [`run_waitset`], a sleep cut short by any other signal is not a stop
+/// request.
 pub fn sleep(node: &Node<Svc>, d: core::time::Duration) -> bool {
-    !matches!(node.wait(d), Err(NodeWaitFailure::TerminationRequest))
+    sleep_unless_asked(node, d, 0)
+}
+
+/// Sleeps up to `d`; false once more than `asked` stop requests came ([`signals::count`]): for
+/// the work that goes on after the first one, until a second.
+pub fn sleep_unless_asked(node: &Node<Svc>, d: core::time::Duration, asked: u32) -> bool {
+    if signals::count() > asked {
+        return false;
+    }
+    // iceoryx2's own termination report says nothing the count does not
+    let _ = node.wait(d);
+    signals::count() <= asked
 }
 
 fn create_node(config: &Common, name: &str) -> Result<Node<Svc>, IpcError> {
@@ -1142,5 +1158,64 @@ mod tests {
             0
         );
         assert!(sub.receive().expect("receive").is_none());
+    }
+
+    /// Issue 23's stop path: a SIGTERM is not lost when another signal iceoryx2 catches lands
+    /// after it (iceoryx2 keeps only the last one), nor when it goes to another thread than the
+    /// one waiting (the live view's WebSocket threads): the wait ends at once.
+    #[test]
+    fn a_stop_request_survives_a_later_signal_and_wakes_a_wait_on_another_thread() {
+        let loc = PrivateDomain::new("ipcsig");
+        let node = node(&loc.config(), "sig").expect("node");
+        let waitset = WaitSetBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::HandleTerminationRequests)
+            .create::<Svc>()
+            .expect("waitset");
+        let _tick = waitset
+            .attach_interval(core::time::Duration::from_secs(3))
+            .expect("interval");
+        let began = std::time::Instant::now();
+        let other = std::thread::spawn(|| {
+            std::thread::sleep(core::time::Duration::from_millis(100));
+            // SAFETY: raise(3) sends to this thread only; iceoryx2 catches SIGUSR1 and only
+            // records it, over the SIGTERM it recorded just before
+            unsafe {
+                libc::raise(libc::SIGTERM);
+                libc::raise(libc::SIGUSR1);
+            }
+        });
+        let mut turns = 0;
+        // a lost request would leave the loop waiting for the interval: one turn ends it
+        let result = run_waitset(&waitset, |_| {
+            turns += 1;
+            CallbackProgression::Stop
+        });
+        let took = began.elapsed();
+        other.join().expect("signalling thread");
+        assert!(
+            matches!(result, Ok(WaitSetRunResult::TerminationRequest)),
+            "{result:?}"
+        );
+        assert_eq!(turns, 0, "the wake-up is not a turn of the loop");
+        assert!(took < core::time::Duration::from_secs(3), "{took:?}");
+        // and every later wait of the process ends too
+        assert!(!sleep(&node, core::time::Duration::from_secs(3)));
+        // the work after the first request (halting the robot) sleeps until a second one
+        let asked = signals::count();
+        assert_eq!(asked, 1);
+        let t = std::time::Instant::now();
+        assert!(sleep_unless_asked(
+            &node,
+            core::time::Duration::from_millis(30),
+            asked
+        ));
+        assert!(t.elapsed() >= core::time::Duration::from_millis(25));
+        // SAFETY: as above, on this thread
+        unsafe { libc::raise(libc::SIGINT) };
+        assert!(!sleep_unless_asked(
+            &node,
+            core::time::Duration::from_secs(3),
+            asked
+        ));
     }
 }

@@ -14,5 +14,6 @@ pub mod logging;
 pub mod pose;
 pub mod realtime;
 pub mod service;
+pub mod signals;
 pub mod systemd;
 pub mod topics;

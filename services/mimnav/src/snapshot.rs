@@ -85,7 +85,7 @@ pub fn run(config: &Config, args: &SnapshotArgs) -> Result<ExitCode> {
                 config.iceoryx2.global.prefix
             );
         }
-        if node.wait(Duration::ZERO).is_err() {
+        if !ipc::sleep(&node, Duration::ZERO) {
             return Ok(ExitCode::from(130));
         }
         plan.heard_within(Duration::from_millis(50));

@@ -296,6 +296,8 @@ impl Children {
         odom: &ipc::ValueSubscriber<Odometry>,
     ) -> Halted {
         let began = Instant::now();
+        // the request that began the halt does not end it; the next one does
+        let asked = mimnav_shared::signals::count();
         if let Some(mut planner) = self.planner.take() {
             planner.stop(STOP_GRACE);
         }
@@ -330,7 +332,7 @@ impl Children {
             }
             if self.sim_exited()
                 || began.elapsed() > HALT_WITHIN
-                || !ipc::sleep(node, Duration::from_millis(5))
+                || !ipc::sleep_unless_asked(node, Duration::from_millis(5), asked)
             {
                 return Halted {
                     last,
