@@ -434,20 +434,58 @@ fn shared_memory_world_writable_after_a_service_starts() {
 /// right after SIGTERM; the live view, with threads of its own, lost it 1 run in 5 under load).
 /// Stopping the process first (SIGSTOP) makes the race certain: both signals are pending when
 /// SIGCONT resumes it, and the SIGUSR1 is handled last. The planner is single-threaded, the view
-/// has its WebSocket threads.
+/// has its WebSocket threads, the Zenoh bridge Zenoh's, the SICK driver its link thread.
 #[test]
 fn a_sigterm_with_another_signal_still_stops_a_service_cleanly() {
     let domain = PrivateDomain::new("sigmix");
-    let view_port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port();
+    let free_tcp_port = || {
+        std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .expect("a free port")
+            .port()
+    };
+    // Zenoh on loopback only: a peer listening on a free port, no scouting
+    let zenoh_conf =
+        TempFile(std::env::temp_dir().join(format!("mimnav-sigmix-{}.json5", std::process::id())));
+    std::fs::write(
+        &zenoh_conf.0,
+        format!(
+            "{{ mode: \"peer\", listen: {{ endpoints: [\"tcp/127.0.0.1:{}\"] }}, \
+             scouting: {{ multicast: {{ enabled: false }}, gossip: {{ enabled: false }} }} }}\n",
+            free_tcp_port()
+        ),
+    )
+    .expect("the Zenoh config");
+    let sets = |s: &[String]| -> Vec<String> {
+        (s.iter())
+            .flat_map(|s| ["--set".to_string(), s.clone()])
+            .collect()
+    };
     for (name, extra, ready) in [
         ("mimnav-planner", vec![], "topics open"),
         (
             "mimnav-view",
-            vec!["--set".to_string(), format!("view.port={view_port}")],
+            sets(&[format!("view.port={}", free_tcp_port())]),
             "serving Foxglove",
+        ),
+        (
+            "mimnav-zenoh",
+            sets(&[
+                "zenoh.enabled=true".into(),
+                format!("zenoh.config_file=\"{}\"", zenoh_conf.0.display()),
+            ]),
+            "topics open",
+        ),
+        (
+            // no scanner answers on the port: the link thread keeps trying to connect
+            "mimnav-sick",
+            sets(&[
+                "foliage.source=\"sick\"".into(),
+                "sick.host=\"127.0.0.1\"".into(),
+                format!("sick.port={}", free_tcp_port()),
+                "sick.reconnect_min_s=0.05".into(),
+            ]),
+            "topics open",
         ),
     ] {
         let mut args = config_args(&domain);
