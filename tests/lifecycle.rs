@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use mimnav_shared::ipc::{self, PrivateDomain, SHM_DIR};
 
 use crate::util::{
-    Proc, TempFile, bin, config_args, free_udp_port, lines_of, shipped_config, stack_args,
-    wait_until,
+    Proc, TempFile, bin, config_args, free_tcp_port, free_udp_port, lines_of, shipped_config,
+    stack_args, wait_until,
 };
 
 /// A process as `/proc/PID/stat` shows it.
@@ -438,24 +438,8 @@ fn shared_memory_world_writable_after_a_service_starts() {
 #[test]
 fn a_sigterm_with_another_signal_still_stops_a_service_cleanly() {
     let domain = PrivateDomain::new("sigmix");
-    let free_tcp_port = || {
-        std::net::TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .expect("a free port")
-            .port()
-    };
     // Zenoh on loopback only: a peer listening on a free port, no scouting
-    let zenoh_conf =
-        TempFile(std::env::temp_dir().join(format!("mimnav-sigmix-{}.json5", std::process::id())));
-    std::fs::write(
-        &zenoh_conf.0,
-        format!(
-            "{{ mode: \"peer\", listen: {{ endpoints: [\"tcp/127.0.0.1:{}\"] }}, \
-             scouting: {{ multicast: {{ enabled: false }}, gossip: {{ enabled: false }} }} }}\n",
-            free_tcp_port()
-        ),
-    )
-    .expect("the Zenoh config");
+    let zenoh_conf = crate::zenoh::bridge_config(&format!("tcp/127.0.0.1:{}", free_tcp_port()));
     let sets = |s: &[String]| -> Vec<String> {
         (s.iter())
             .flat_map(|s| ["--set".to_string(), s.clone()])
@@ -513,7 +497,7 @@ fn a_sigterm_with_another_signal_still_stops_a_service_cleanly() {
             seen.join("\n")
         );
     }
-    // both removed their nodes
+    // each removed its node
     let nodes = std::fs::read_dir(domain.root.join("nodes"))
         .map(|rd| rd.flatten().count())
         .unwrap_or(0);

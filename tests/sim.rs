@@ -4,7 +4,7 @@ use std::time::{Duration, Instant};
 use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{VelocityCommand, command_status};
 
-use crate::util::{PointsTap, Proc, bin, free_udp_port, root, stack_args};
+use crate::util::{PointsTap, Proc, bin, free_tcp_port, free_udp_port, root, stack_args};
 
 #[test]
 fn the_simulator_streams_to_the_driver_like_a_sensor() {
@@ -137,12 +137,6 @@ fn lockstep_waits_for_the_stack_and_follows_its_commands() {
         "the robot followed the commands: x = {x}: {out}"
     );
     assert!(answered >= 28, "{answered}");
-}
-
-/// A loopback TCP port free right now.
-fn free_tcp_port() -> u16 {
-    let s = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
-    s.local_addr().expect("addr").port()
 }
 
 /// Drives the SICK driver's session over `stream` until `want` scans came (or `within`

@@ -11,7 +11,7 @@ use mimnav_shared::ipc::{self, Listening, PrivateDomain};
 use mimnav_shared::topics::{MapHeader, PlanCell};
 use serde_json::Value;
 
-use crate::util::{Proc, bin, config_args, lines_of, root, wait_until};
+use crate::util::{Proc, bin, config_args, free_tcp_port, lines_of, root, wait_until};
 
 /// A Python with PyPI's `websockets` and `protobuf` (`MIMNAV_WS_PYTHON`, which `.ci/run` sets,
 /// else `target/ws-venv`), or None after a SKIP line.
@@ -23,12 +23,6 @@ fn python_with_websockets(test: &str) -> Option<PathBuf> {
         "websockets, google.protobuf",
         "websockets==15.0.1 protobuf==5.29.4",
     )
-}
-
-/// A loopback TCP port free right now.
-fn free_tcp_port() -> u16 {
-    let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
-    l.local_addr().expect("addr").port()
 }
 
 /// `mimnav-view` in `domain` on `port`, once it serves; its stderr lines go to the receiver.

@@ -123,7 +123,7 @@ impl Drop for NetnsPair {
 }
 
 /// A Zenoh JSON5 config for the bridge: peer, listening on `endpoint` only, no scouting.
-fn bridge_config(endpoint: &str) -> TempFile {
+pub(crate) fn bridge_config(endpoint: &str) -> TempFile {
     static N: AtomicU32 = AtomicU32::new(0);
     let path = std::env::temp_dir().join(format!(
         "mimnav-zenoh-{}-{}.json5",

@@ -148,7 +148,10 @@ where
         });
         match result {
             Ok(WaitSetRunResult::Interrupt | WaitSetRunResult::AllEventsHandled) => continue,
-            Ok(WaitSetRunResult::StopRequest) if signals::requested() => continue,
+            // the wake-up attachment's Stop
+            Ok(WaitSetRunResult::StopRequest) if signals::requested() => {
+                return Ok(WaitSetRunResult::TerminationRequest);
+            }
             other => return other,
         }
     }

@@ -73,10 +73,7 @@ fn the_stack_runs_restarts_and_stops_under_a_real_systemd_user_manager() {
         std::fs::write(units.join(format!("mimnav-{s}.service")), unit).expect("unit");
     }
     // the live view (issue 25): asked for SCHED_FIFO like the mapper, which it must refuse
-    let view_port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port();
+    let view_port = crate::util::free_tcp_port();
     let view_system =
         std::fs::read_to_string(inst.join("usr/lib/systemd/system/mimnav-view.service"))
             .expect("installed view unit");
