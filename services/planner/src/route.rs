@@ -80,6 +80,11 @@ pub struct Route {
     row_cost: Vec<u8>,
     /// Cells whose final length is still wanted (`settle_within_m`).
     wanted: Vec<bool>,
+    /// The coarse cells whose centre lies within the settling reach of the robot, whether open
+    /// or not, and the (cells, cell size, reach) they were found for: the same from one map to
+    /// the next, so found once instead of by 1600 `hypot`s a plan.
+    near: Vec<bool>,
+    near_for: (usize, u32, u32),
     /// The moves each coarse cell may take, bit j for `moves[j]`: its target and the cells it
     /// passes beside are open.
     allowed: Vec<u16>,
@@ -107,6 +112,8 @@ impl Default for Route {
             row_obstacle: Vec::new(),
             row_cost: Vec::new(),
             wanted: Vec::new(),
+            near: Vec::new(),
+            near_for: (0, 0, 0),
             allowed: Vec::new(),
         }
     }
@@ -337,12 +344,18 @@ impl Route {
         let mut wanted = 0usize;
         if p.settle_within_m > 0.0 {
             let reach = p.settle_within_m + 2.0 * cs.cell_m;
-            for (k, (want, &open)) in self.wanted.iter_mut().zip(&self.open).enumerate() {
-                let (x, y) = cs.center_of(k / cells, k % cells);
-                if open && x.hypot(y) <= reach {
-                    *want = true;
-                    wanted += 1;
-                }
+            let key = (cells, cs.cell_m.to_bits(), reach.to_bits());
+            if self.near_for != key || self.near.len() != m {
+                self.near.clear();
+                self.near.extend((0..m).map(|k| {
+                    let (x, y) = cs.center_of(k / cells, k % cells);
+                    x.hypot(y) <= reach
+                }));
+                self.near_for = key;
+            }
+            for ((want, &open), &near) in self.wanted.iter_mut().zip(&self.open).zip(&self.near) {
+                *want = open && near;
+                wanted += usize::from(*want);
             }
         }
         self.search(w, wanted);
