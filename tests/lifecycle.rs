@@ -105,12 +105,25 @@ fn demo_children(demo: u32, within: Duration) -> Vec<ProcInfo> {
 
 /// The iceoryx2 domain `pid` was started in, from its `--set iceoryx2.global.root-path=…` and
 /// `--set iceoryx2.global.prefix=…`. Dropping the value removes what is left of the domain.
+///
+/// The process may be found in the middle of its `exec`: the kernel names it (`comm`) before it
+/// lays out the new arguments, and `/proc/PID/cmdline` reads empty until then (seen once: the
+/// test failed 0.7 s in). So the arguments are read until they hold the domain, for up to 10 s.
 fn domain_of(pid: i32) -> PrivateDomain {
-    let raw = std::fs::read(format!("/proc/{pid}/cmdline")).expect("cmdline");
-    let args: Vec<String> = raw
-        .split(|&b| b == 0)
-        .map(|a| String::from_utf8_lossy(a).into_owned())
-        .collect();
+    let t0 = Instant::now();
+    let args: Vec<String> = loop {
+        let raw = std::fs::read(format!("/proc/{pid}/cmdline")).expect("cmdline");
+        let args: Vec<String> = raw
+            .split(|&b| b == 0)
+            .map(|a| String::from_utf8_lossy(a).into_owned())
+            .collect();
+        if args.iter().any(|a| a.starts_with("iceoryx2.global.prefix="))
+            || t0.elapsed() > Duration::from_secs(10)
+        {
+            break args;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
     let value = |key: &str| {
         args.iter()
             .find_map(|a| a.strip_prefix(key))
