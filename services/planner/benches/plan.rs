@@ -5,6 +5,10 @@
 //!
 //! `cargo bench -p mimnav-planner --bench plan`
 //!
+//! Each case runs its maps round after round for 3 s and prints the mean, median and p99 over
+//! every plan, then over each map's least time of its rounds (its own cost, with less of what
+//! other work on the machine added), then the stages alone.
+//!
 //! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
 //! speed-up must leave them the same) — short enough to count instructions under
 //! `valgrind --tool=callgrind`; `PLAN_BENCH_ADAPTIVE=1` leaves out the uniform baseline. With
@@ -155,15 +159,21 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
         return;
     }
     let mut times = Vec::new();
+    // each map's least time over the rounds: its own cost, with less of what the machine's
+    // other work (another VM's thread on the same core) added to some rounds
+    let mut least = vec![f64::INFINITY; maps.len()];
     let start = Instant::now();
     while start.elapsed().as_secs_f64() < 3.0 {
-        for (classes, v, w, goal) in maps {
+        for ((classes, v, w, goal), least) in maps.iter().zip(least.iter_mut()) {
             let t = Instant::now();
             std::hint::black_box(planner.plan(classes, grid, *v, *w, *goal));
-            times.push(t.elapsed().as_secs_f64() * 1e6);
+            let us = t.elapsed().as_secs_f64() * 1e6;
+            times.push(us);
+            *least = least.min(us);
         }
     }
     times.sort_by(f64::total_cmp);
+    least.sort_by(f64::total_cmp);
     let mean = times.iter().sum::<f64>() / times.len() as f64;
     let p99 = times[(times.len() * 99 / 100).min(times.len() - 1)];
     let p = &planner.params().planner;
@@ -175,6 +185,16 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
         p.v_samples * p.omega_samples,
         (p.horizon_s / p.dt_s).ceil()
     );
+    if !least.is_empty() {
+        println!(
+            "  each map's least of its {} rounds: mean {:.0} µs, median {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+            times.len() / least.len(),
+            least.iter().sum::<f64>() / least.len() as f64,
+            least[least.len() / 2],
+            least[(least.len() * 99 / 100).min(least.len() - 1)],
+            least[least.len() - 1]
+        );
+    }
 }
 
 /// Where the time goes: each stage alone, mean µs per map.
