@@ -117,7 +117,9 @@ fn domain_of(pid: i32) -> PrivateDomain {
             .split(|&b| b == 0)
             .map(|a| String::from_utf8_lossy(a).into_owned())
             .collect();
-        if args.iter().any(|a| a.starts_with("iceoryx2.global.prefix="))
+        if args
+            .iter()
+            .any(|a| a.starts_with("iceoryx2.global.prefix="))
             || t0.elapsed() > Duration::from_secs(10)
         {
             break args;
