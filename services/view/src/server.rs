@@ -141,12 +141,31 @@ impl Server {
     }
 }
 
+/// How long a stopping server waits for its clients' connections to close. The SDK's shutdown
+/// waits for every client's task, and the task of a client that reads nothing waits on its
+/// full socket: unbounded, a viewer that stalled kept the view from stopping until it went
+/// away (9 s in the test), past the unit's `TimeoutStopSec=5s`, whose SIGKILL leaves the
+/// view's iceoryx2 node dead.
+const SHUTDOWN_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
+
 impl Drop for Server {
     fn drop(&mut self) {
         if let (Some(h), Some(rt)) = (self.handle.take(), self.runtime.as_ref()) {
-            // stop() returns a handle to wait on; the runtime must still run for that
+            // stop() returns a handle to wait on; the runtime must still run for that. Waited
+            // for on the runtime, and here for at most `SHUTDOWN_WAIT`: the runtime's shutdown
+            // below then drops the wait, and with it (the SDK's rule) every client's task.
             let done = h.stop();
-            rt.block_on(done.wait());
+            let (tx, rx) = std::sync::mpsc::channel();
+            rt.spawn(async move {
+                done.wait().await;
+                let _ = tx.send(());
+            });
+            if rx.recv_timeout(SHUTDOWN_WAIT).is_err() {
+                tracing::warn!(
+                    "the Foxglove clients' connections did not close within {} ms of the stop;                      they are dropped",
+                    SHUTDOWN_WAIT.as_millis()
+                );
+            }
         }
         if let Some(rt) = self.runtime.take() {
             rt.shutdown_timeout(std::time::Duration::from_secs(1));
