@@ -525,11 +525,33 @@ fn issue25_3_remote_goals_are_ignored_unless_accepted() {
     }
     let got = goal_within(&goals, Duration::from_secs(2), |_| true);
     assert!(got.is_none(), "nothing from B reaches mimnav/goal: {got:?}");
-    assert!(
-        bridge
-            .terminate(Duration::from_secs(10))
-            .is_some_and(|s| s.success())
+    // B stops reading (SIGSTOP keeps its connection open) while odometry goes on: the bridge
+    // must still end on SIGTERM well inside the unit's TimeoutStopSec=5s
+    let pid = peer._proc.0.id() as libc::pid_t;
+    // SAFETY: kill(2) on the pid of a child this test started and has not reaped.
+    unsafe { libc::kill(pid, libc::SIGSTOP) };
+    let until = Instant::now() + Duration::from_secs(2);
+    while Instant::now() < until {
+        seq += 1;
+        let o = Odometry {
+            seq,
+            rx_mono_ns: ipc::monotonic_ns(),
+            ..Odometry::default()
+        };
+        odom.publish(o).expect("publish odom");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let t0 = Instant::now();
+    let status = bridge.terminate(Duration::from_secs(15));
+    let took = t0.elapsed();
+    // SAFETY: as above; the peer goes on so that dropping it can end it
+    unsafe { libc::kill(pid, libc::SIGCONT) };
+    println!(
+        "SIGTERM with the peer stopped: the bridge ended after {:.3} s: {status:?}",
+        took.as_secs_f64()
     );
+    assert!(status.is_some_and(|s| s.success()), "{status:?}");
+    assert!(took < Duration::from_secs(3), "{took:?}");
     drop(peer);
 }
 
