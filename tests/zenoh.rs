@@ -122,6 +122,17 @@ impl Drop for NetnsPair {
     }
 }
 
+/// Odometry number `seq` at `x` m, stamped now: the test standing in for the robot's base.
+fn publish_odom(odom: &ipc::ValuePublisher<Odometry>, seq: u64, x: f64) {
+    let o = Odometry {
+        seq,
+        rx_mono_ns: ipc::monotonic_ns(),
+        x,
+        ..Odometry::default()
+    };
+    odom.publish(o).expect("publish odom");
+}
+
 /// A Zenoh JSON5 config for the bridge: peer, listening on `endpoint` only, no scouting.
 pub(crate) fn bridge_config(endpoint: &str) -> TempFile {
     static N: AtomicU32 = AtomicU32::new(0);
@@ -507,13 +518,7 @@ fn issue25_3_remote_goals_are_ignored_unless_accepted() {
     let mut seq = 0;
     while peer.samples("odom").is_empty() && Instant::now() < end {
         seq += 1;
-        let o = Odometry {
-            seq,
-            rx_mono_ns: ipc::monotonic_ns(),
-            x: 1.25,
-            ..Odometry::default()
-        };
-        odom.publish(o).expect("publish odom");
+        publish_odom(&odom, seq, 1.25);
         peer.until(Duration::from_millis(100), |_| false);
     }
     let heard = peer.samples("odom");
@@ -533,12 +538,7 @@ fn issue25_3_remote_goals_are_ignored_unless_accepted() {
     let until = Instant::now() + Duration::from_secs(2);
     while Instant::now() < until {
         seq += 1;
-        let o = Odometry {
-            seq,
-            rx_mono_ns: ipc::monotonic_ns(),
-            ..Odometry::default()
-        };
-        odom.publish(o).expect("publish odom");
+        publish_odom(&odom, seq, 0.0);
         std::thread::sleep(Duration::from_millis(10));
     }
     let t0 = Instant::now();
@@ -744,12 +744,7 @@ fn issue25_3_the_documented_access_control_lets_only_the_operator_steer() {
     let mut seq = 0;
     while peers.iter().any(|p| p.samples("odom").is_empty()) && Instant::now() < end {
         seq += 1;
-        let o = Odometry {
-            seq,
-            rx_mono_ns: ipc::monotonic_ns(),
-            ..Odometry::default()
-        };
-        odom.publish(o).expect("publish odom");
+        publish_odom(&odom, seq, 0.0);
         for p in &mut peers {
             p.until(Duration::from_millis(50), |_| false);
         }

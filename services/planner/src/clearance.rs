@@ -241,8 +241,6 @@ fn pass<const BACK: bool>(out: &mut [f32], n: usize, r0: usize, rows: usize, g: 
     let (r3, rest) = rest.split_at_mut(n);
     let (r4, rest) = rest.split_at_mut(n);
     let r5 = &mut rest[..n];
-    // the loops' columns lie in 1..n - 1 of rows n long: no index is checked in them
-    let (r1, r2, r3, r4) = (&mut r1[..n], &mut r2[..n], &mut r3[..n], &mut r4[..n]);
     if BACK {
         // from r5, the row below the group, up to r1
         for t in lag + 1..n - 1 {

@@ -162,7 +162,8 @@ impl Drop for Server {
             });
             if rx.recv_timeout(SHUTDOWN_WAIT).is_err() {
                 tracing::warn!(
-                    "the Foxglove clients' connections did not close within {} ms of the stop;                      they are dropped",
+                    "the Foxglove clients' connections did not close within {} ms of the stop; \
+                     they are dropped",
                     SHUTDOWN_WAIT.as_millis()
                 );
             }
