@@ -454,12 +454,23 @@ fn issue25_3_zenoh_peer_in_another_namespace_sees_the_map_and_steers() {
         }
     }
     assert!(after.len() >= 5, "commands after the stop: {after:?}");
+    // every command zero; its status "no goal", or "stale input" where the stack's inputs lagged
+    // on a loaded machine (held still either way, and never "driving"); the stop itself shows
     for c in &after {
         assert!(
-            c.v == 0.0 && c.omega == 0.0 && c.status == command_status::NO_GOAL,
+            c.v == 0.0
+                && c.omega == 0.0
+                && matches!(
+                    c.status,
+                    command_status::NO_GOAL | command_status::STALE_INPUT
+                ),
             "held still after the stop: {c:?}"
         );
     }
+    assert!(
+        after.iter().any(|c| c.status == command_status::NO_GOAL),
+        "the planner has no goal after the stop: {after:?}"
+    );
     println!("{} commands after the stop, every one zero", after.len());
 
     // the bridge counted the bad goals and forwarded one goal (of up to 3 sent) and one stop
