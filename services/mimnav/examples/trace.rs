@@ -4,7 +4,7 @@
 //! EVERY revolutions and for the last four. How the glass failures of issue 22 were read.
 //!
 //! ```sh
-//! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--config FILE] [--set KEY=VALUE]…
+//! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--seed N] [--config FILE] [--set KEY=VALUE]…
 //! ```
 use std::path::PathBuf;
 
@@ -14,7 +14,8 @@ use mimnav_runner::{Lockstep, Options};
 use mimnav_shared::pose::Pose2Ext;
 use mimnav_sim::world::WorldFile;
 
-const USAGE: &str = "usage: trace WORLD OUTDIR [EVERY] [--config FILE] [--set KEY=VALUE]...";
+const USAGE: &str =
+    "usage: trace WORLD OUTDIR [EVERY] [--seed N] [--config FILE] [--set KEY=VALUE]...";
 
 fn main() -> std::process::ExitCode {
     match run() {
@@ -35,6 +36,13 @@ fn run() -> anyhow::Result<()> {
             .collect()
     };
     let (sets, config_path) = (flag("--set"), flag("--config").pop());
+    // the episode seed, as `mimnav eval --first-seed` numbers them
+    let seed: u64 = match flag("--seed").pop() {
+        Some(s) => s
+            .parse()
+            .map_err(|_| anyhow::anyhow!("--seed {s}: not a number; {USAGE}"))?,
+        None => 1,
+    };
     let positional: Vec<&String> = (args.iter().enumerate())
         .filter(|(i, a)| !a.starts_with("--") && (*i == 0 || !args[i - 1].starts_with("--")))
         .map(|(_, a)| a)
@@ -63,7 +71,7 @@ fn run() -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{e}"))?
         .compile();
     let goal = scene.goal;
-    let mut run = Lockstep::new(&config, scene, 1, Options::deployed(&config))?;
+    let mut run = Lockstep::new(&config, scene, seed, Options::deployed(&config))?;
     run.set_goal(goal[0], goal[1], config.sim.goal_tolerance_m)?;
     let grid = config.map.grid();
     let mut frames: Vec<(usize, mimnav_mapper::render::Image)> = Vec::new();

@@ -94,6 +94,14 @@ pub struct PlannerConfig {
     /// pane where it would first touch it). On the tune worlds, two episode seeds, Spot 99 →
     /// 101 of 140, contacts 20 → 11, no family lower (docs/glass.md).
     pub glass_slow_ends: bool,
+    /// A pane running along the heading (within about 15°) beside the body's lane does not
+    /// limit the speed: driving straight on, the body passes it, and the part not yet seen goes
+    /// on along the same line (a pane across the way still does). A robot searching a
+    /// partition for its opening sweeps the pane faster. Off: on the tune worlds, two episode
+    /// seeds each, the Turtlebot 2 123 → 126 of 140 and Spot 105 → 106 with no contact more,
+    /// but on the report worlds the Turtlebot 2 came to a storefront's door at full speed and
+    /// touched the pane past it (docs/glass.md).
+    pub glass_slow_beside: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
     /// (0: never).
@@ -168,6 +176,7 @@ impl Default for PlannerConfig {
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
             glass_slow_ends: true,
+            glass_slow_beside: false,
             recovery_after_s: 1.5,
             recovery_s: 2.0,
             recovery_mps: 0.15,

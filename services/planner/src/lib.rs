@@ -256,6 +256,8 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
     else {
         return f64::INFINITY;
     };
+    // the lane the body sweeps driving straight on, with its margin
+    let lane = (body.half_width_m() + p.planner.margin_m) as f32;
     let mut nearest = f64::INFINITY;
     for r in r0.min(r1)..=r0.max(r1) {
         for c in c0.min(c1)..=c0.max(c1) {
@@ -268,11 +270,17 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
                 continue;
             }
             let d = body.signed_distance(f64::from(x), f64::from(y));
-            if d < nearest
-                && (cell_class::is_glass(class)
-                    || is_post(classes, grid, r, c)
-                    || ends && class == cell_class::SOLID && is_end(classes, grid, r, c))
-            {
+            if d >= nearest {
+                continue;
+            }
+            let slows = if cell_class::is_glass(class) {
+                !(p.planner.glass_slow_beside
+                    && y.abs() > lane
+                    && along_heading(classes, grid, r, c))
+            } else {
+                is_post(classes, grid, r, c) || ends && is_end(classes, grid, r, c)
+            };
+            if slows {
                 nearest = d;
             }
         }
@@ -281,6 +289,26 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
         return f64::INFINITY;
     }
     slow + (top - slow) * (nearest / within).clamp(0.0, 1.0)
+}
+
+/// Rows [`along_heading`] looks ahead and behind a glass cell for the rest of its pane, m.
+const ALONG_M: f32 = 0.2;
+
+/// True when the glass cell (r, c) belongs to a pane that runs along the robot's heading: a glass
+/// or suspected glass cell [`ALONG_M`] ahead of it or behind it lies within a cell of its column
+/// (the pane within about 15° of the heading). Driving straight on, the body passes such a pane
+/// beside it (the part not yet seen goes on along the same line), so it does not limit the
+/// speed where it lies outside the body's lane; a pane across the way does.
+fn along_heading(classes: &[u8], grid: GridSpec, r: usize, c: usize) -> bool {
+    let k = (ALONG_M / grid.cell_m).round().max(1.0) as usize;
+    let n = grid.cells;
+    [r.checked_sub(k), Some(r + k).filter(|&rr| rr < n)]
+        .into_iter()
+        .flatten()
+        .any(|rr| {
+            (c.saturating_sub(1)..=(c + 1).min(n - 1))
+                .any(|cc| cell_class::is_glass(classes[grid.index(rr, cc)]))
+        })
 }
 
 /// Half the width of the largest solid the speed limit near glass takes for a post between
@@ -475,6 +503,7 @@ mod tests {
             DwaOutcome::Drive { v, .. } => v,
             o => panic!("{o:?}"),
         };
+        // the rule itself, on a pane along the way (`glass_slow_beside` would exempt it: below)
         let p = PlannerParams::default();
         // 0.4 m from the body's edge: 0.2 + (0.5 − 0.2) · 0.4 / 1.0 m/s
         let cap = glass_speed_cap(&p, &beside(0.0).1, beside(0.0).0);
@@ -490,6 +519,47 @@ mod tests {
             f64::INFINITY
         );
         assert!(speed(p, beside(-3.5)) > 0.45);
+    }
+
+    #[test]
+    fn a_pane_along_the_way_beside_the_lane_does_not_slow_and_one_across_it_does() {
+        let mut p = PlannerParams::default();
+        p.planner.glass_slow_beside = true;
+        let cap_for = |p: &PlannerParams, f: &dyn Fn(f32, f32) -> bool| {
+            let (grid, classes) = crate::clearance::tests::map(|x, y| match f(x, y) {
+                true => cell_class::GLASS,
+                false => cell_class::FREE,
+            });
+            glass_speed_cap(p, &classes, grid)
+        };
+        let cap = |f: &dyn Fn(f32, f32) -> bool| cap_for(&p, f);
+        // beside the way, 0.6 m to the left, along the heading
+        let beside = |x: f32, y: f32| (y - 0.6).abs() < 0.03 && x > 0.0 && x < 3.0;
+        assert_eq!(cap(&beside), f64::INFINITY);
+        // the same pane, suspected: the same
+        let (grid, mut suspected) = crate::clearance::tests::map(|x, y| match beside(x, y) {
+            true => cell_class::SUSPECTED_GLASS,
+            false => cell_class::FREE,
+        });
+        assert_eq!(glass_speed_cap(&p, &suspected, grid), f64::INFINITY);
+        // a single glass cell of it, a pane's end seen alone: no pane along the way, it slows
+        suspected.iter_mut().for_each(|c| *c = cell_class::FREE);
+        let (r, c) = grid.cell_of(0.6, 0.6).expect("in the grid");
+        suspected[grid.index(r, c)] = cell_class::GLASS;
+        assert!(glass_speed_cap(&p, &suspected, grid) < 0.45);
+        // across the way 0.8 m ahead, with a door in the lane: it slows
+        let across = |x: f32, y: f32| (x - 0.8).abs() < 0.03 && y.abs() > 0.45 && y.abs() < 2.0;
+        assert!(cap(&across) < 0.45, "{}", cap(&across));
+        // at 45° ahead on the left: it slows
+        let oblique = |x: f32, y: f32| (y - x).abs() < 0.04 && x > 0.4 && x < 2.0;
+        assert!(cap(&oblique) < 0.45, "{}", cap(&oblique));
+        // along the way but inside the lane (0.3 m: the half width and the margin): it slows
+        let inside = |x: f32, y: f32| (y - 0.25).abs() < 0.03 && x > 0.5 && x < 3.0;
+        assert!(cap(&inside) < 0.45, "{}", cap(&inside));
+        // off, the pane beside slows as before
+        let mut off = p.clone();
+        off.planner.glass_slow_beside = false;
+        assert!(cap_for(&off, &beside) < 0.4);
     }
 
     #[test]
