@@ -49,6 +49,14 @@ pub struct PlannerConfig {
     /// surface by up to half a cell's diagonal, and a surface seen obliquely fills its outermost
     /// cells last.
     pub margin_m: f64,
+    /// A body already nearer an obstacle than `margin_m` at some point of its outline (in a door
+    /// it barely fits, or after a late detection) may come down to this share of the margin
+    /// anywhere along a trajectory; nearer than that already, no nearer than it is (0–1).
+    pub inside_margin_share: f64,
+    /// Top speed forward while some point of the body's outline is nearer a solid or glass
+    /// cell than `margin_m`, m/s (0: not limited). The dynamic window brakes to it as fast as
+    /// the robot's acceleration allows.
+    pub inside_margin_mps: f64,
     /// Coarse cell of the route search around obstacles, m (0: straight-line goal progress, as
     /// in the paper).
     pub route_cell_m: f64,
@@ -165,6 +173,8 @@ impl Default for PlannerConfig {
             speed_weight: 0.1,
             obstacle_weight: 1.0,
             margin_m: 0.1,
+            inside_margin_share: 0.5,
+            inside_margin_mps: 0.4,
             route_cell_m: 0.25,
             route_cost_weight: 1.0,
             route_swing_weight: 4.0,
@@ -232,6 +242,18 @@ impl PlannerConfig {
         r.check("planner.speed_weight", self.speed_weight, 0.0, 1000.0);
         r.check("planner.obstacle_weight", self.obstacle_weight, 0.0, 1000.0);
         r.check("planner.margin_m", self.margin_m, 0.0, 2.0);
+        r.check(
+            "planner.inside_margin_share",
+            self.inside_margin_share,
+            0.0,
+            1.0,
+        );
+        r.check(
+            "planner.inside_margin_mps",
+            self.inside_margin_mps,
+            0.0,
+            10.0,
+        );
         r.check("planner.route_cell_m", self.route_cell_m, 0.0, 2.0);
         r.check(
             "planner.route_cost_weight",

@@ -16,6 +16,10 @@
 //! make (beyond the paper: narrow
 //! passages stay open without ever grazing a wall); the others are scored by goal progress, speed and the obstacle
 //! cost summed along them on the planning map (eq. 12), and the cheapest wins.
+//!
+//! A body already inside its margin somewhere (a door it barely fits, a late detection) may
+//! come down to `planner.inside_margin_share` of the margin, and drives forward no faster than
+//! `planner.inside_margin_mps` until it is out of it.
 
 use mimnav_shared::grid::GridSpec;
 
@@ -225,10 +229,10 @@ fn search(
     let round = discs.len() == 1 && discs[0].0 == 0.0;
     // the outline's points (body frame) and the clearance they need: the margin, and half the
     // spacing so that no point of the outline between two samples comes closer. A body already
-    // inside the margin somewhere (in a door) may come down to half the margin anywhere: held
-    // point by point to "no closer than now", a jamb sliding along the body's side made every
-    // motion but standing still infeasible, and Spot froze in the door
-    let floor = 0.5 * pl.margin_m + 0.5 * OUTLINE_SPACING_M;
+    // inside the margin somewhere (in a door) may come down to `inside_margin_share` of the
+    // margin anywhere: held point by point to "no closer than now", a jamb sliding along the
+    // body's side made every motion but standing still infeasible, and Spot froze in the door
+    let floor = pl.inside_margin_share * pl.margin_m + 0.5 * OUTLINE_SPACING_M;
     let mut closest = f64::INFINITY;
     for [bx, by] in p.outline() {
         let Some(start) = start_clear(bx, by) else {
@@ -243,6 +247,15 @@ fn search(
         floor
     } else {
         closest
+    };
+    // inside the margin (`closest < full`), forward no faster than `inside_margin_mps`: where a
+    // body has come nearer an obstacle than its margin, the map's last cell is all that is left
+    // between them, and a bush's outer leaves or a surface seen obliquely fill it late
+    let v_hi = match gear {
+        Gear::Forward if pl.inside_margin_mps > 0.0 && closest < full => {
+            v_hi.min(pl.inside_margin_mps).max(v_lo)
+        }
+        _ => v_hi,
     };
     let sides = p.robot.body().sides();
     let cell_m = f64::from(grid.cell_m);
@@ -714,5 +727,34 @@ mod tests {
             DwaOutcome::Drive { v, .. } => assert!(v > 0.05, "moves on: {v}"),
             o => panic!("{o:?}"),
         }
+    }
+
+    #[test]
+    fn a_body_inside_its_margin_slows_to_inside_margin_mps() {
+        // Spot driving along a wall on its right, at speed, the goal straight ahead: its speed
+        // with the wall's cells at `y` (robot frame)
+        let speed = |p: &PlannerParams, y: f32| {
+            let (grid, classes) = map(|_, yy| match (yy - y).abs() < 0.03 {
+                true => cell_class::SOLID,
+                false => cell_class::FREE,
+            });
+            let (clear, cost) = open_cost(&classes, grid, 4.0);
+            match plan(p, grid, &cost, &clear, 0.5, 0.0, (4.0, 0.0), None) {
+                DwaOutcome::Drive { v, .. } => v,
+                o => panic!("{o:?}"),
+            }
+        };
+        // 0.07 m from its right side: inside the 0.1 m margin, above the half it may come to
+        let inside = -0.345;
+        let mut p = spot();
+        p.planner.inside_margin_mps = 0.0;
+        let free = speed(&p, inside);
+        assert!(free > 0.35, "not limited: {free}");
+        p.planner.inside_margin_mps = 0.2;
+        let v = speed(&p, inside);
+        assert!(v <= 0.2 + 1e-9 && v > 0.0, "{v}");
+        // the same wall beyond the margin: not limited
+        let beyond = speed(&p, -0.6);
+        assert!(beyond > 0.35, "{beyond}");
     }
 }
