@@ -1,6 +1,6 @@
 //! Debugging a run revolution by revolution: runs one episode of a world through the lock-step
 //! runner (the services' own step types, the deployed method) and prints each revolution's pose
-//! and command; writes the planner's map (robot at the centre, heading up, goal in blue) every
+//! and command (status, flags as in `command_flags`, v, ω); writes the planner's map (robot at the centre, heading up, goal in blue) every
 //! EVERY revolutions and for the last four. How the glass failures of issue 22 were read.
 //!
 //! ```sh
@@ -90,7 +90,7 @@ fn run() -> anyhow::Result<()> {
                 ..Marks::default()
             },
         );
-        let cmd = turn.command.map(|(d, c)| (d.status, c.v, c.omega));
+        let cmd = turn.command.map(|(d, c)| (d.status, d.flags, c.v, c.omega));
         println!(
             "rev {n} pose ({:.2},{:.2},{:.2}) cmd {:?}",
             pose.x(),
