@@ -1,7 +1,8 @@
 //! Debugging a run revolution by revolution: runs one episode of a world through the lock-step
 //! runner (the services' own step types, the deployed method) and prints each revolution's pose
-//! and command (status, flags as in `command_flags`, v, ω); writes the planner's map (robot at the centre, heading up, goal in blue) every
-//! EVERY revolutions and for the last four. How the glass failures of issue 22 were read.
+//! and command (status, flags as in `command_flags`, v, ω); writes the planner's map (robot at
+//! the centre, heading up, goal in blue) every EVERY revolutions and for the last four. How the
+//! glass failures of issue 22 were read.
 //!
 //! ```sh
 //! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--seed N] [--config FILE] [--set KEY=VALUE]…
