@@ -83,7 +83,8 @@ pub fn detect_spikes(
 }
 
 /// A [`Pose2`] ready to move many points between the robot and odometry frames: its sine and
-/// cosine in plain numbers, for the inner loops (everything else uses [`Pose2Ext`]).
+/// cosine in plain numbers, for the inner loops (everything else uses
+/// [`Pose2Ext`](mimnav_shared::pose::Pose2Ext)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
     x: f64,

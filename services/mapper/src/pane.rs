@@ -19,7 +19,10 @@
 //! - a beam that crossed the line within `glass_normal_deg` of the line's normal and returned
 //!   from beyond it, in a revolution whose ring shows no spike near that normal at all: glass
 //!   there would have returned the spike (the *open* evidence, kept like the glass evidence: an
-//!   opening seen once stays open, and glass evidence in the same spot wins over it);
+//!   opening seen once stays open, and glass evidence in the same spot wins over it) — also
+//!   from the revolutions before the pane was seen (`HISTORY` of them), tested once when it is
+//!   first drawn: a pane is seen first where the foot of the sensor's perpendicular reaches
+//!   glass, and on the way along a partition the foot may have crossed its opening before that;
 //! - a solid or passable cell of this revolution on the line (a frame, a wall, a curtain in the
 //!   way: the pane ends there), or an unknown cell that something nearer hides (the inside of the
 //!   pillar a pane meets: its far side is not this pane's to close).
@@ -36,7 +39,7 @@
 //! seen from, and how Cartographer_glass keeps detected glass against later misses: a miss
 //! counts only from an angle where glass would have given a return.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext};
@@ -157,6 +160,9 @@ struct Pane {
     line: ((f64, f64), (f64, f64)),
     revolutions: u32,
     last_revolution_ns: u64,
+    /// The past revolutions' beams have been tested against the line (once, when the pane is
+    /// first drawn).
+    replayed: bool,
 }
 
 impl Pane {
@@ -229,7 +235,25 @@ pub struct Panes {
     reach: Vec<bool>,
     /// Scratch per bin: a post the extension passes.
     post: Vec<bool>,
+    /// The near-horizontal rings of past revolutions, newest last: a pane is seen first where
+    /// the foot of the sensor's perpendicular reaches glass, and an opening the foot passed
+    /// before that (on the way along a partition) would otherwise be drawn over as suspected
+    /// glass.
+    history: VecDeque<Past>,
 }
+
+/// The rings of one past revolution and where they were seen from.
+#[derive(Debug, Clone)]
+struct Past {
+    pose: Pose2,
+    now_ns: u64,
+    rings: Vec<Ring>,
+}
+
+/// Past revolutions kept for a pane seen later: at most this many, ...
+const HISTORY: usize = 64;
+/// ... one each time the sensor has moved this far (a robot standing still adds nothing), m.
+const HISTORY_STEP_M: f64 = 0.05;
 
 const UNSEEN: u8 = 0;
 const GLASS: u8 = 1;
@@ -261,6 +285,34 @@ impl Panes {
     /// Glass evidence entries held (all panes).
     pub fn evidence_len(&self) -> usize {
         self.panes.iter().map(|p| p.glass.len()).sum()
+    }
+
+    /// Keeps this revolution's `rings` for panes seen later, when the sensor has moved
+    /// [`HISTORY_STEP_M`] since the last kept (the oldest's buffers reused once full).
+    fn keep(&mut self, pose: &Pose2, now_ns: u64, rings: &[Ring]) {
+        if let Some(last) = self.history.back()
+            && (last.pose.x() - pose.x()).hypot(last.pose.y() - pose.y()) < HISTORY_STEP_M
+        {
+            return;
+        }
+        let mut past = match self.history.len() >= HISTORY {
+            true => self.history.pop_front(),
+            false => None,
+        }
+        .unwrap_or_else(|| Past {
+            pose: *pose,
+            now_ns,
+            rings: Vec::new(),
+        });
+        past.pose = *pose;
+        past.now_ns = now_ns;
+        past.rings.resize_with(rings.len(), Ring::default);
+        for (kept, ring) in past.rings.iter_mut().zip(rings) {
+            // field by field: a derived `clone_from` would allocate anew
+            kept.returns.clone_from(&ring.returns);
+            kept.first.clone_from(&ring.first);
+        }
+        self.history.push_back(past);
     }
 
     /// Adds one revolution seen from `pose` at `now_ns` (equations 6 and 7): the sightings with
@@ -297,6 +349,7 @@ impl Panes {
                         line: (c, (ux, uy)),
                         revolutions: 0,
                         last_revolution_ns: u64::MAX,
+                        replayed: false,
                     });
                     self.panes.len() - 1
                 }
@@ -325,60 +378,28 @@ impl Panes {
             }
         }
         // open evidence: beams near a pane's normal that passed its line without a spike
-        let (sx, sy) = (pose.x(), pose.y());
         for p in &mut self.panes {
-            let ((px, py), (ux, uy)) = p.line;
-            // the foot of the sensor's perpendicular on the line, and its distance
-            let s_foot = (sx - px) * ux + (sy - py) * uy;
-            let (fx, fy) = (px + s_foot * ux, py + s_foot * uy);
-            let (nx, ny) = (fx - sx, fy - sy);
-            let d = nx.hypot(ny);
-            if !(MIN_TEST_M..=max_m).contains(&d) {
-                continue;
-            }
-            // the normal's bearing in the robot frame, and as the sensor's azimuth (clockwise)
-            let normal_bearing = ny.atan2(nx) - yaw;
-            let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
-            let open = &mut p.open;
-            let half_deg = normal_rad.to_degrees() + 1.0;
-            // the unit normal towards the line: a beam fired from elsewhere than the sensor
-            // where the revolution ends is as far from the line as its origin
-            let (cn, sn) = (nx / d, ny / d);
-            for ring in rings {
-                // a spike near the normal: glass is there, and the beams beside it are at the
-                // edge of its cone (or beyond the pane's end, which the next revolutions see
-                // squarely as the robot moves on)
-                let mut spiked = false;
-                ring.around(centre_deg, half_deg, |r| spiked |= r.spike);
-                if spiked {
-                    continue;
+            open_evidence(p, pose, now_ns, rings, normal_rad, max_m, cell_m);
+        }
+        // a pane drawn for the first time (seen in `MIN_REVOLUTIONS`): the beams of past
+        // revolutions that crossed its line squarely before anything of it was seen
+        for p in &mut self.panes {
+            if p.revolutions >= MIN_REVOLUTIONS && !p.replayed {
+                p.replayed = true;
+                for past in &self.history {
+                    open_evidence(
+                        p,
+                        &past.pose,
+                        past.now_ns,
+                        &past.rings,
+                        normal_rad,
+                        max_m,
+                        cell_m,
+                    );
                 }
-                ring.around(centre_deg, half_deg, |r| {
-                    // the beam, from where it was fired (robot frame)
-                    let (bx, by) = (r.origin.0, r.origin.1);
-                    let (rx, ry) = (f64::from(r.x - bx), f64::from(r.y - by));
-                    let bearing = ry.atan2(rx);
-                    let off = wrap(bearing - normal_bearing);
-                    if off.abs() > normal_rad {
-                        return;
-                    }
-                    // the origin in the odometry frame, and its distance to the line
-                    let (ox, oy) = frame.to_odom(f64::from(bx), f64::from(by));
-                    let d_origin = d - ((ox - sx) * cn + (oy - sy) * sn);
-                    if d_origin < MIN_TEST_M {
-                        return;
-                    }
-                    let t = d_origin / off.cos();
-                    if rx.hypot(ry) < t + BEYOND_M {
-                        return;
-                    }
-                    // where the beam crossed the line (odometry frame)
-                    let b = bearing + yaw;
-                    let (cx, cy) = (ox + t * b.cos(), oy + t * b.sin());
-                    open.insert(key(cx, cy, cell_m), (cx, cy, now_ns));
-                });
             }
         }
+        self.keep(pose, now_ns, rings);
     }
 
     /// Forgets evidence older than `max_age_ns` or farther than `max_m` from `pose`, and panes
@@ -567,6 +588,74 @@ impl Panes {
     }
 }
 
+/// The open evidence of one revolution seen from `pose` for pane `p`: the returns of `rings`
+/// within `normal_rad` of the pane's normal that passed its line without a spike, the pane
+/// within `max_m`.
+fn open_evidence(
+    p: &mut Pane,
+    pose: &Pose2,
+    now_ns: u64,
+    rings: &[Ring],
+    normal_rad: f64,
+    max_m: f64,
+    cell_m: f64,
+) {
+    let frame = Frame::of(pose);
+    let yaw = pose.yaw();
+    let (sx, sy) = (pose.x(), pose.y());
+    let ((px, py), (ux, uy)) = p.line;
+    // the foot of the sensor's perpendicular on the line, and its distance
+    let s_foot = (sx - px) * ux + (sy - py) * uy;
+    let (fx, fy) = (px + s_foot * ux, py + s_foot * uy);
+    let (nx, ny) = (fx - sx, fy - sy);
+    let d = nx.hypot(ny);
+    if !(MIN_TEST_M..=max_m).contains(&d) {
+        return;
+    }
+    // the normal's bearing in the robot frame, and as the sensor's azimuth (clockwise)
+    let normal_bearing = ny.atan2(nx) - yaw;
+    let centre_deg = (-normal_bearing.to_degrees()).rem_euclid(360.0);
+    let open = &mut p.open;
+    let half_deg = normal_rad.to_degrees() + 1.0;
+    // the unit normal towards the line: a beam fired from elsewhere than the sensor
+    // where the revolution ends is as far from the line as its origin
+    let (cn, sn) = (nx / d, ny / d);
+    for ring in rings {
+        // a spike near the normal: glass is there, and the beams beside it are at the
+        // edge of its cone (or beyond the pane's end, which the next revolutions see
+        // squarely as the robot moves on)
+        let mut spiked = false;
+        ring.around(centre_deg, half_deg, |r| spiked |= r.spike);
+        if spiked {
+            continue;
+        }
+        ring.around(centre_deg, half_deg, |r| {
+            // the beam, from where it was fired (robot frame)
+            let (bx, by) = (r.origin.0, r.origin.1);
+            let (rx, ry) = (f64::from(r.x - bx), f64::from(r.y - by));
+            let bearing = ry.atan2(rx);
+            let off = wrap(bearing - normal_bearing);
+            if off.abs() > normal_rad {
+                return;
+            }
+            // the origin in the odometry frame, and its distance to the line
+            let (ox, oy) = frame.to_odom(f64::from(bx), f64::from(by));
+            let d_origin = d - ((ox - sx) * cn + (oy - sy) * sn);
+            if d_origin < MIN_TEST_M {
+                return;
+            }
+            let t = d_origin / off.cos();
+            if rx.hypot(ry) < t + BEYOND_M {
+                return;
+            }
+            // where the beam crossed the line (odometry frame)
+            let b = bearing + yaw;
+            let (cx, cy) = (ox + t * b.cos(), oy + t * b.sin());
+            open.insert(key(cx, cy, cell_m), (cx, cy, now_ns));
+        });
+    }
+}
+
 /// An angle wrapped into (−π, π].
 fn wrap(a: f64) -> f64 {
     let t = (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI);
@@ -628,5 +717,61 @@ mod tests {
         let (s, c) = 4f32.to_radians().sin_cos();
         let open = open_after(-0.06 + s, -c, behind);
         assert!(open.is_empty(), "{open:?}");
+    }
+
+    /// A ring with one return straight to the robot's right, 1 m beyond a line at y = −0.5.
+    fn right_through() -> Ring {
+        let mut ring = Ring::default();
+        ring.clear();
+        ring.push(RayReturn {
+            azimuth_deg: 90.0,
+            x: 0.0,
+            y: -1.5,
+            spike: false,
+            origin: (0.0, 0.0),
+        });
+        ring
+    }
+
+    #[test]
+    fn an_opening_passed_before_its_pane_was_seen_is_open_once_the_pane_is() {
+        // the robot drives along x past an opening, its beams square to the partition's line
+        // (y = −0.5) passing through; then the foot of its perpendicular reaches glass at x = 2
+        let run = |history: bool| {
+            let mut panes = Panes::new(0.05);
+            let ring = right_through();
+            let mut t = 0;
+            if history {
+                for k in 0..20 {
+                    t += 1;
+                    let at = pose2(0.05 * f64::from(k), 0.0, 0.0);
+                    panes.observe(&at, t, &[], &[], std::slice::from_ref(&ring), 0.035, 10.0);
+                }
+            }
+            assert!(panes.is_empty());
+            let sighting = Sighting {
+                x: 0.0,
+                y: -0.5,
+                nx: 0.0,
+                ny: -1.0,
+            };
+            for x in [2.0, 2.05] {
+                t += 1;
+                let at = pose2(x, 0.0, 0.0);
+                panes.observe(&at, t, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+            }
+            assert_eq!(panes.len(), 1);
+            let mut open: Vec<f64> = panes.panes[0].open.values().map(|e| e.0).collect();
+            open.sort_by(f64::total_cmp);
+            open
+        };
+        let open = run(true);
+        // where the beams crossed the line: x = 0 … 0.95, an entry per 5 cm cell (two that
+        // round into one cell merge)
+        assert!(open.len() >= 12, "{open:?}");
+        assert!(open[0].abs() < 1e-6, "{open:?}");
+        assert!((open[open.len() - 1] - 0.95).abs() < 1e-6, "{open:?}");
+        // without those revolutions nothing says the line is open there
+        assert!(run(false).is_empty());
     }
 }
