@@ -290,38 +290,41 @@ impl Panes {
     }
 
     /// Keeps this revolution's `rings` for panes seen later, when the sensor has moved
-    /// [`HISTORY_STEP_M`] since the last kept (the oldest's buffers reused once full).
+    /// [`HISTORY_STEP_M`] since the last kept.
     fn keep(&mut self, pose: &Pose2, now_ns: u64, rings: &[Ring]) {
         if let Some(last) = self.history.back()
             && (last.pose.x() - pose.x()).hypot(last.pose.y() - pose.y()) < HISTORY_STEP_M
         {
             return;
         }
-        let mut past = match self.history.len() >= HISTORY {
-            true => self.history.pop_front(),
-            false => None,
-        }
-        .unwrap_or_else(|| Past {
-            pose: *pose,
-            now_ns,
-            rings: Vec::new(),
-        });
-        past.pose = *pose;
-        past.now_ns = now_ns;
+        // the oldest's buffers reused once the history is full
+        let mut rings_kept = match self.history.len() >= HISTORY {
+            true => self
+                .history
+                .pop_front()
+                .map(|p| p.rings)
+                .unwrap_or_default(),
+            false => Vec::new(),
+        };
         // the rings with returns (most are empty), and of them only the beams that can pass a
-        // line the opening test looks at
+        // line the opening test looks at (squared lengths: this runs after the last packet)
+        let least = (MIN_TEST_M + BEYOND_M).powi(2) as f32;
         let full = rings.iter().filter(|r| !r.returns.is_empty());
-        past.rings.resize_with(full.clone().count(), Ring::default);
-        for (kept, ring) in past.rings.iter_mut().zip(full) {
+        rings_kept.resize_with(full.clone().count(), Ring::default);
+        for (kept, ring) in rings_kept.iter_mut().zip(full) {
             kept.clear();
             for r in &ring.returns {
                 let (dx, dy) = (r.x - r.origin.0, r.y - r.origin.1);
-                if f64::from(dx.hypot(dy)) >= MIN_TEST_M + BEYOND_M {
+                if dx * dx + dy * dy >= least {
                     kept.push(*r);
                 }
             }
         }
-        self.history.push_back(past);
+        self.history.push_back(Past {
+            pose: *pose,
+            now_ns,
+            rings: rings_kept,
+        });
     }
 
     /// Adds one revolution seen from `pose` at `now_ns` (equations 6 and 7): the sightings with
