@@ -256,6 +256,10 @@ const HISTORY: usize = 32;
 /// 3.2 m of driving. A beam within `glass_normal_deg` (2.8°) of the normal covers 10 cm of a
 /// line 1 m away, and one stretch of open evidence is enough to stop a pane's extension.
 const HISTORY_STEP_M: f64 = 0.1;
+/// Returns each kept ring has room for from the start: a VLP-16 laser's firings in one
+/// revolution at 600 rpm (about 1810), rounded up. A longer ring (a slower sensor) grows its
+/// buffer once.
+const HISTORY_RING_RETURNS: usize = 2048;
 
 const UNSEEN: u8 = 0;
 const GLASS: u8 = 1;
@@ -297,6 +301,13 @@ impl Panes {
         {
             return;
         }
+        // a revolution without near-horizontal returns adds nothing when replayed
+        if rings.iter().all(|r| r.returns.is_empty()) {
+            return;
+        }
+        if self.history.is_empty() {
+            self.reserve_history(pose, now_ns, rings);
+        }
         // the oldest's buffers reused once the history is full
         let mut rings_kept = match self.history.len() >= HISTORY {
             true => self
@@ -325,6 +336,56 @@ impl Panes {
             now_ns,
             rings: rings_kept,
         });
+    }
+
+    /// Fills the history with empty revolutions (they add no evidence when replayed) whose
+    /// rings are allocated and written once, as many as `rings` has with returns, each for the
+    /// longest of them and at least [`HISTORY_RING_RETURNS`]: the history's memory is taken
+    /// at the first revolution with near-horizontal returns, not over the first metres driven
+    /// (and a soak sees the service's heap flat).
+    fn reserve_history(&mut self, pose: &Pose2, now_ns: u64, rings: &[Ring]) {
+        let full = rings.iter().filter(|r| !r.returns.is_empty());
+        let count = full.clone().count();
+        let cap = full
+            .map(|r| r.returns.len())
+            .fold(HISTORY_RING_RETURNS, usize::max);
+        let blank = RayReturn {
+            azimuth_deg: 0.0,
+            x: 0.0,
+            y: 0.0,
+            spike: false,
+            origin: (0.0, 0.0),
+        };
+        for _ in 0..HISTORY {
+            let rings = (0..count)
+                .map(|_| {
+                    let mut ring = Ring {
+                        returns: vec![blank; cap],
+                        first: Vec::new(),
+                    };
+                    ring.clear();
+                    ring
+                })
+                .collect();
+            self.history.push_back(Past {
+                pose: *pose,
+                now_ns,
+                rings,
+            });
+        }
+    }
+
+    /// The bytes the history's rings hold allocated.
+    #[cfg(test)]
+    fn history_bytes(&self) -> usize {
+        let ring = |r: &Ring| {
+            r.returns.capacity() * std::mem::size_of::<RayReturn>()
+                + r.first.capacity() * std::mem::size_of::<u32>()
+        };
+        self.history
+            .iter()
+            .map(|p| p.rings.iter().map(ring).sum::<usize>())
+            .sum()
     }
 
     /// Adds one revolution seen from `pose` at `now_ns` (equations 6 and 7): the sightings with
@@ -786,5 +847,53 @@ mod tests {
         assert!(open.windows(2).all(|w| w[1] - w[0] <= 0.16), "{open:?}");
         // without those revolutions nothing says the line is open there
         assert!(run(false).is_empty());
+    }
+
+    #[test]
+    fn the_history_takes_its_memory_at_the_first_revolution_and_no_more() {
+        let mut panes = Panes::new(0.05);
+        // nothing near horizontal: nothing reserved
+        panes.observe(
+            &pose2(0.0, 0.0, 0.0),
+            1,
+            &[],
+            &[],
+            &[Ring::default()],
+            0.035,
+            10.0,
+        );
+        assert_eq!(panes.history_bytes(), 0);
+        let short = right_through();
+        let mut long = Ring::default();
+        for k in 0..2000 {
+            let a = k as f32 * 0.18;
+            long.push(RayReturn {
+                azimuth_deg: a,
+                x: 3.0 * a.to_radians().cos(),
+                y: -3.0 * a.to_radians().sin(),
+                spike: false,
+                origin: (0.0, 0.0),
+            });
+        }
+        let mut t = 1;
+        let mut step = |panes: &mut Panes, k: u32, rings: &[Ring]| {
+            t += 1;
+            let at = pose2(0.1 * f64::from(k), 0.0, 0.0);
+            panes.observe(&at, t, &[], &[], rings, 0.035, 10.0);
+        };
+        step(&mut panes, 1, std::slice::from_ref(&short));
+        let reserved = panes.history_bytes();
+        assert_eq!(panes.history.len(), HISTORY);
+        assert!(
+            reserved >= HISTORY * HISTORY_RING_RETURNS * 24,
+            "{reserved}"
+        );
+        // many places, rings up to a whole revolution long: the same memory
+        for k in 2..200 {
+            let ring = if k % 3 == 0 { &long } else { &short };
+            step(&mut panes, k, std::slice::from_ref(ring));
+            assert_eq!(panes.history.len(), HISTORY);
+            assert_eq!(panes.history_bytes(), reserved, "after {k} places");
+        }
     }
 }
