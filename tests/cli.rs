@@ -207,6 +207,15 @@ fn the_soak_accounts_for_every_revolution_hop_by_hop() {
     );
     // on a machine shared with the other tests a stall may cost a revolution, not the stream
     assert!(commanded * 100 >= expected * 95, "{json}");
+    // the latency of the commands matched to their revolutions: most of them (a command for
+    // want of fresh input is not), ordered percentiles, positive and below a revolution's time
+    // at 5× (20 ms) but on a stalled machine
+    let lat = &json["latency_ms"];
+    let f = |k: &str| lat[k].as_f64().unwrap_or_else(|| panic!("latency_ms.{k} in {json}"));
+    assert!(f("revolutions") * 100.0 >= commanded as f64 * 90.0, "{json}");
+    assert!(f("revolutions") <= commanded as f64, "{json}");
+    assert!(0.0 < f("p50") && f("p50") <= f("p99") && f("p99") <= f("max"), "{json}");
+    assert!(f("p50") < 20.0, "{json}");
     let memory = json["memory"].as_array().expect("memory");
     let services: Vec<&str> = (memory.iter())
         .filter_map(|m| m["service"].as_str())

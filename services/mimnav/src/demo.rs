@@ -95,7 +95,7 @@ pub enum Base {
 }
 
 /// Percentile `q` (0–1) of sorted values.
-fn percentile(sorted: &[f64], q: f64) -> f64 {
+pub(crate) fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
     }
