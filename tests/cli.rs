@@ -211,10 +211,20 @@ fn the_soak_accounts_for_every_revolution_hop_by_hop() {
     // want of fresh input is not), ordered percentiles, positive and below a revolution's time
     // at 5× (20 ms) but on a stalled machine
     let lat = &json["latency_ms"];
-    let f = |k: &str| lat[k].as_f64().unwrap_or_else(|| panic!("latency_ms.{k} in {json}"));
-    assert!(f("revolutions") * 100.0 >= commanded as f64 * 90.0, "{json}");
+    let f = |k: &str| {
+        lat[k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("latency_ms.{k} in {json}"))
+    };
+    assert!(
+        f("revolutions") * 100.0 >= commanded as f64 * 90.0,
+        "{json}"
+    );
     assert!(f("revolutions") <= commanded as f64, "{json}");
-    assert!(0.0 < f("p50") && f("p50") <= f("p99") && f("p99") <= f("max"), "{json}");
+    assert!(
+        0.0 < f("p50") && f("p50") <= f("p99") && f("p99") <= f("max"),
+        "{json}"
+    );
     assert!(f("p50") < 20.0, "{json}");
     let memory = json["memory"].as_array().expect("memory");
     let services: Vec<&str> = (memory.iter())

@@ -347,6 +347,8 @@ pub struct SlicePublisher<
     capacity: usize,
     publisher: Publisher<Svc, [T], H>,
     notifier: Notifier<Svc>,
+    /// The service, for its count of subscribers.
+    service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<Svc, [T], H>,
 }
 
 impl<T, H> SlicePublisher<T, H>
@@ -382,12 +384,20 @@ where
             capacity,
             publisher,
             notifier,
+            service,
         })
     }
 
     /// The static capacity (elements).
     pub fn capacity(&self) -> usize {
         self.capacity
+    }
+
+    /// True when a subscriber of the topic is open now (one read of the service's shared
+    /// counters): a publisher may leave out a sample that takes long to fill and that nobody
+    /// would read.
+    pub fn has_subscribers(&self) -> bool {
+        self.service.dynamic_config().number_of_subscribers() > 0
     }
 
     /// Copies `items` into a loaned shared-memory sample with `header`, sends it and wakes the
@@ -998,6 +1008,18 @@ mod tests {
         assert_eq!(sample.payload()[9].x, 9.0);
         drop(sample);
         assert!(sub.receive().expect("receive").is_none());
+    }
+
+    #[test]
+    fn a_publisher_knows_whether_anyone_subscribes() {
+        let loc = PrivateDomain::new("ipcsubs");
+        let node = node(&loc.config(), "ipc-subs").expect("node");
+        let publ = layers_publisher(&node, 8).expect("publisher");
+        assert!(!publ.has_subscribers());
+        let sub = layers_subscriber(&node).expect("subscriber");
+        assert!(publ.has_subscribers());
+        drop(sub);
+        assert!(!publ.has_subscribers());
     }
 
     #[test]

@@ -211,10 +211,13 @@ impl Output {
         let plan_sent = ipc::monotonic_ns();
         let plan_sent_us = plan_sent.saturating_sub(rx) / 1000;
         self.lat.push(rx, now, u64::from(us), plan_sent);
+        // the layers (the view's, a recording's, a snapshot's) only when someone reads them:
+        // writing them takes a twentieth of the mapper's time in grass
         let mapper = step.mapper();
-        if let Err(e) = self
-            .layers_pub
-            .publish_filled(mapped.header, self.len, |out| mapper.write_layers(out))
+        if self.layers_pub.has_subscribers()
+            && let Err(e) = self
+                .layers_pub
+                .publish_filled(mapped.header, self.len, |out| mapper.write_layers(out))
         {
             h.faults.record("publish_failed", at, e);
         }
