@@ -18,7 +18,7 @@
 //! ```sh
 //! PLAN_BENCH=digest PLAN_BENCH_MAPS=$PWD/target/plan-maps cargo bench -p mimnav-planner --bench plan
 //! PLAN_BENCH=digest PLAN_BENCH_MAPS=$PWD/target/plan-maps valgrind --tool=callgrind \
-//!     --collect-atstart=no '--toggle-collect=*Planner*plan_in*' target/release/deps/plan-HASH --bench
+//!     --collect-atstart=no '--toggle-collect=*Planner*plan_as*' target/release/deps/plan-HASH --bench
 //! ```
 
 use std::path::PathBuf;
