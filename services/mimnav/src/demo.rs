@@ -26,7 +26,7 @@ use mimnav_shared::config::toml_quote;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::ipc;
 use mimnav_shared::pose::{Pose2Ext, pose2};
-use mimnav_shared::topics::{Goal, MapHeader, command_flags, command_status};
+use mimnav_shared::topics::{Goal, MapHeader, VelocityCommand, command_flags, command_status};
 
 use crate::stack::{self, Resolved, Stack};
 
@@ -94,8 +94,61 @@ pub enum Base {
     Kobuki,
 }
 
+/// The latency from a revolution's last packet to its `cmd_vel` (issue 27), as the demo and
+/// the soak measure it: each map's revolution and the arrival of its last packet (the map's
+/// `rx_mono_ns`), matched with the command planned on it; a command for want of fresh input is
+/// not counted.
+#[derive(Debug, Default)]
+pub(crate) struct CmdLatency {
+    /// The last maps' revolutions and their last packets' arrival.
+    arrived: VecDeque<(u64, u64)>,
+    ms: Vec<f64>,
+}
+
+impl CmdLatency {
+    /// A map of revolution `source_seq`, whose last packet arrived at `rx_mono_ns`.
+    pub(crate) fn map(&mut self, source_seq: u64, rx_mono_ns: u64) {
+        self.arrived.push_back((source_seq, rx_mono_ns));
+        if self.arrived.len() > 64 {
+            self.arrived.pop_front();
+        }
+    }
+
+    /// A command: its latency counted when its map was seen.
+    pub(crate) fn command(&mut self, c: &VelocityCommand) {
+        if let Some(&(_, rx)) = self.arrived.iter().find(|(seq, _)| *seq == c.source_seq)
+            && c.status != command_status::STALE_INPUT
+            && rx > 0
+        {
+            self.ms
+                .push(c.stamp_mono_ns.saturating_sub(rx) as f64 / 1e6);
+        }
+    }
+
+    /// The percentiles over every command counted.
+    pub(crate) fn summary(&self) -> Latency {
+        let mut ms = self.ms.clone();
+        ms.sort_by(f64::total_cmp);
+        Latency {
+            revolutions: ms.len(),
+            p50: percentile(&ms, 0.5),
+            p99: percentile(&ms, 0.99),
+            max: ms.last().copied().unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// Percentiles of [`CmdLatency`], ms.
+#[derive(Debug, serde::Serialize)]
+pub(crate) struct Latency {
+    pub(crate) revolutions: usize,
+    pub(crate) p50: f64,
+    pub(crate) p99: f64,
+    pub(crate) max: f64,
+}
+
 /// Percentile `q` (0–1) of sorted values.
-pub(crate) fn percentile(sorted: &[f64], q: f64) -> f64 {
+fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
     }
@@ -198,9 +251,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
-    // revolution sequence → its last packet's receive time (from the map header)
-    let mut received: VecDeque<(u64, u64)> = VecDeque::new();
-    let mut latencies_ms = Vec::new();
+    let mut latency = CmdLatency::default();
     let mut mapper_ms = Vec::new();
     let (mut maps, mut cmds, mut blocked, mut stale) = (0u64, 0u64, 0u64, 0u64);
     let mut alarmed = 0u64;
@@ -220,11 +271,8 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         }
         while let Some(sample) = plans.receive()? {
             let h = *sample.user_header();
-            received.push_back((h.source_seq, h.rx_mono_ns));
+            latency.map(h.source_seq, h.rx_mono_ns);
             mapper_ms.push(f64::from(h.processing_us) / 1e3);
-            if received.len() > 64 {
-                received.pop_front();
-            }
             let classes: Vec<u8> = sample.payload().iter().map(|c| c.class).collect();
             drop(sample);
             last_map = Some((h, classes));
@@ -248,12 +296,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
             if c.status == command_status::DRIVING || c.status == command_status::GOAL_REACHED {
                 goal_seen = true;
             }
-            if let Some(&(_, rx)) = received.iter().find(|(seq, _)| *seq == c.source_seq)
-                && c.status != command_status::STALE_INPUT
-                && rx > 0
-            {
-                latencies_ms.push(c.stamp_mono_ns.saturating_sub(rx) as f64 / 1e6);
-            }
+            latency.command(&c);
         }
         if let Some(o) = odom.latest()? {
             last_odom = Some((o.x, o.y));
@@ -310,7 +353,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
         );
         crate::snapshot::write_png(&args.out, &img)?;
     }
-    latencies_ms.sort_by(f64::total_cmp);
+    let latency = latency.summary();
     mapper_ms.sort_by(f64::total_cmp);
     let _ = outln!(
         "{}: {outcome} after {:.1} s simulated ({wall_s:.1} s wall); driven {:.2} m, straight line {:.2} m (ratio {:.2})",
@@ -322,10 +365,10 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &DemoArgs) -> Resu
     );
     let _ = outln!(
         "{maps} maps, {cmds} commands ({blocked} blocked, {stale} stale input, {alarmed} with the foliage alarm); latency from a revolution's last packet to its cmd_vel over {} revolutions: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
-        latencies_ms.len(),
-        percentile(&latencies_ms, 0.5),
-        percentile(&latencies_ms, 0.99),
-        latencies_ms.last().copied().unwrap_or(f64::NAN)
+        latency.revolutions,
+        latency.p50,
+        latency.p99,
+        latency.max
     );
     let _ = outln!(
         "of which the mapper's own processing per revolution: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",

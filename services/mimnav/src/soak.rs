@@ -14,7 +14,7 @@
 //! Exit status: 0 when no revolution was lost and no service's memory grew; 3 otherwise; 130
 //! when interrupted; 1 on an error.
 
-use std::collections::{BTreeMap, HashSet, VecDeque};
+use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -24,6 +24,7 @@ use mimnav_shared::ipc;
 use mimnav_shared::topics::{Goal, command_status};
 use serde::Serialize;
 
+use crate::demo::{CmdLatency, Latency};
 use crate::stack::{self, Resolved, Stack};
 
 /// How often the processes' memory is sampled.
@@ -168,32 +169,9 @@ struct Report {
     lost_end_to_end: u64,
     /// Goals reached on the patrol.
     goals_reached: u64,
-    /// From a revolution's last packet to its `cmd_vel`, over the run.
+    /// From a revolution's last packet to its `cmd_vel`, over the run (as the demo measures it).
     latency_ms: Latency,
     memory: Vec<Memory>,
-}
-
-/// Percentiles of the latency from a revolution's last packet to its `cmd_vel`, ms (issue 27),
-/// as `mimnav demo` measures it: over every command planned on a map whose revolution's
-/// arrival the soak saw.
-#[derive(Debug, Serialize)]
-struct Latency {
-    revolutions: usize,
-    p50: f64,
-    p99: f64,
-    max: f64,
-}
-
-impl Latency {
-    fn of(mut ms: Vec<f64>) -> Self {
-        ms.sort_by(f64::total_cmp);
-        Latency {
-            revolutions: ms.len(),
-            p50: crate::demo::percentile(&ms, 0.5),
-            p99: crate::demo::percentile(&ms, 0.99),
-            max: ms.last().copied().unwrap_or(f64::NAN),
-        }
-    }
 }
 
 impl Report {
@@ -310,9 +288,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
     let (mut last_points, mut last_map, mut last_alarm) =
         (Last::default(), Last::default(), Last::default());
     let mut commanded: HashSet<u64> = HashSet::new();
-    // the last maps' revolutions and when their last packets came (the demo's measure)
-    let mut arrived: VecDeque<(u64, u64)> = VecDeque::new();
-    let mut latencies_ms: Vec<f64> = Vec::new();
+    let mut latency = CmdLatency::default();
     let mut rss: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
     let (mut next_rss, mut drops, mut interrupted) = (started, None, false);
     let mut sim_ended_at: Option<Instant> = None;
@@ -332,10 +308,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
         while let Some(s) = plans.receive()? {
             let h = s.user_header();
             last_map.take(h.seq, h.source_seq);
-            arrived.push_back((h.source_seq, h.rx_mono_ns));
-            if arrived.len() > 64 {
-                arrived.pop_front();
-            }
+            latency.map(h.source_seq, h.rx_mono_ns);
         }
         while let Some(s) = alarms.receive()? {
             let h = s.user_header();
@@ -347,12 +320,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
             if c.source_stamp_ns != 0 {
                 commanded.insert(c.source_seq);
             }
-            if let Some(&(_, rx)) = arrived.iter().find(|(seq, _)| *seq == c.source_seq)
-                && c.status != command_status::STALE_INPUT
-                && rx > 0
-            {
-                latencies_ms.push(c.stamp_mono_ns.saturating_sub(rx) as f64 / 1e6);
-            }
+            latency.command(&c);
             match c.status {
                 command_status::NO_GOAL if !goal_taken => _ = goal_pub.publish(goal(goal_seq))?,
                 command_status::DRIVING | command_status::BLOCKED => goal_taken = true,
@@ -422,7 +390,7 @@ pub fn run(config_path: Option<&Path>, sets: &[String], args: &SoakArgs) -> Resu
         lost_foliage: last_alarm.sources().saturating_sub(last_alarm.count()),
         lost_end_to_end: expected.saturating_sub(commanded_n),
         goals_reached: goal_seq,
-        latency_ms: Latency::of(latencies_ms),
+        latency_ms: latency.summary(),
         memory: memory(&rss),
     };
     print(&report);
