@@ -273,7 +273,7 @@ impl Decoder {
 }
 
 /// `x.round() as i64` (halves away from zero) without the call into libm's `roundf`, a tenth
-/// of the driver's time in grass: the fraction `x - trunc(x)` of an `f32` is exact, so comparing
+/// of the driver's user time in grass: the fraction `x - trunc(x)` of an `f32` is exact, so comparing
 /// it with ±0.5 rounds exactly as `roundf` does (NaN gives 0 and ±∞ saturate, as `as` does).
 #[inline]
 fn round(x: f32) -> i64 {
@@ -322,8 +322,10 @@ mod tests {
         for x in edges {
             assert_eq!(round(x), x.round() as i64, "{x:?}");
         }
-        // every azimuth the decoder can form, to the f32's last bit, near each half
-        for n in 36_000..72_080 {
+        // every value the azimuth takes before its modulo (the block's azimuth, 36 000 and at
+        // most 7 200 of interpolation: the largest packet span over the shortest delay), to the
+        // f32's last bit around each half
+        for n in 36_000..80_000 {
             let half = n as f32 + 0.5;
             for x in [half.next_down(), half, half.next_up()] {
                 assert_eq!(round(x), x.round() as i64, "{x:?}");
