@@ -626,6 +626,19 @@ impl Mapper {
             self.params.robot.mount.y_m as f32,
         );
         for (k, p0) in points.iter().enumerate() {
+            // the cell a few points ahead is fetched into the cache while this one is binned:
+            // in grass most cells a revolution touches are no longer cached since the last
+            // one, and waiting for their layers and evidence was a third of the binning. The
+            // point before its de-skew (a few centimetres off) is near enough for a hint.
+            if let Some(q) = points.get(k + PREFETCH_AHEAD)
+                && let Some((r, c)) = grid.cell_of(q.x, q.y)
+            {
+                let i = grid.index(r, c);
+                // both ends: a cell's layers (and its evidence) may straddle two cache lines
+                prefetch(&self.layer, i * m);
+                prefetch(&self.layer, (i + 1) * m - 1);
+                prefetch(&self.evidence, i);
+            }
             let mut p = *p0;
             let mut az_cdeg = p.azimuth_cdeg;
             let (mut sin_t, mut cos_t, mut shift) = (0.0f32, 1.0f32, 0.0f32);
@@ -1367,6 +1380,28 @@ fn touch(state: &mut [u8], touched: &mut Vec<u32>, redo: &mut Vec<u32>, i: usize
         }
         _ => {}
     }
+}
+
+/// How many points ahead [`Mapper::bin`] fetches a cell: the binning of one point is a few
+/// hundred instructions, so a handful ahead is about a cache miss's time (measured: 4–16 alike).
+const PREFETCH_AHEAD: usize = 8;
+
+/// Asks the processor to bring `s[i]` into the cache; nothing where it cannot, or `i` is out of
+/// bounds. A hint only: what the program computes does not change.
+#[inline(always)]
+fn prefetch<T>(s: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(x) = s.get(i) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let first = std::ptr::from_ref(x).cast::<i8>();
+        // SAFETY: a prefetch never faults nor changes memory; both addresses are in `s[i]`
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(first);
+            _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<T>() - 1));
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (s, i);
 }
 
 #[inline]
