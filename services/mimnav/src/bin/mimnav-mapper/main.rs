@@ -56,8 +56,8 @@ fn run(config: &Config) -> Result<()> {
     );
     let deadline = Duration::from_secs_f64(config.mapper.points_deadline_s);
     let points_guard = svc.on_deadline(&points, deadline)?;
-    let _slices_guard = svc.on_data(&slices)?;
-    let (_odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
+    let slices_guard = svc.on_data(&slices)?;
+    let (odom_guard, _tick) = (svc.on_data(&odom_sub)?, svc.every(Duration::from_secs(10))?);
     let mut out = Output {
         plan_pub,
         layers_pub,
@@ -78,7 +78,18 @@ fn run(config: &Config) -> Result<()> {
             h.sd.status(&what);
             h.faults.record("stale_points", turn.now, what);
         }
-        let _ = (odom_sub.heard(), points.heard(), slices.heard());
+        // only the listener that woke this turn has notifications to drain (each drain is a
+        // system call; a turn comes per slice, some 25 a revolution): one that fired while
+        // this turn ran wakes the next
+        if turn.from(&slices_guard) {
+            let _ = slices.heard();
+        }
+        if turn.from(&odom_guard) {
+            let _ = odom_sub.heard();
+        }
+        if turn.from(&points_guard) {
+            let _ = points.heard();
+        }
         h.take_latest(&odom_sub, turn.now, "bad_odom", |o| step.odom(o));
         // the revolution binned slice by slice as it arrives (issue 27); mapped on its last
         loop {
