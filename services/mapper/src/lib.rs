@@ -636,7 +636,7 @@ impl Mapper {
                 let i = grid.index(r, c);
                 // both ends: a cell's layers (and its evidence) may straddle two cache lines
                 prefetch(&self.layer, i * m);
-                prefetch(&self.layer, (i + 1) * m - 1);
+                prefetch(&self.layer, i * m + m.saturating_sub(1));
                 prefetch(&self.evidence, i);
             }
             let mut p = *p0;
@@ -1383,7 +1383,7 @@ fn touch(state: &mut [u8], touched: &mut Vec<u32>, redo: &mut Vec<u32>, i: usize
 }
 
 /// How many points ahead [`Mapper::bin`] fetches a cell: the binning of one point is a few
-/// hundred instructions, so a handful ahead is about a cache miss's time (measured: 4–16 alike).
+/// hundred instructions, so a handful ahead is about a cache miss's time (measured: 8 and 24 alike).
 const PREFETCH_AHEAD: usize = 8;
 
 /// Asks the processor to bring `s[i]` into the cache; nothing where it cannot, or `i` is out of
@@ -1395,9 +1395,10 @@ fn prefetch<T>(s: &[T], i: usize) {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         let first = std::ptr::from_ref(x).cast::<i8>();
         // SAFETY: a prefetch never faults nor changes memory; both addresses are in `s[i]`
+        // (its first and last byte; the same one for a type of no size)
         unsafe {
             _mm_prefetch::<_MM_HINT_T0>(first);
-            _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<T>() - 1));
+            _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<T>().saturating_sub(1)));
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

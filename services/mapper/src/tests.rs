@@ -647,3 +647,13 @@ fn a_kept_tall_cell_gives_way_to_a_beam_through_it_and_to_what_is_seen_now() {
     m.update(&[], fresh(0.0, 0.0), s / 5);
     assert_eq!(class_at(&m, x, y), cell_class::SOLID, "nothing seen now");
 }
+
+#[test]
+fn a_prefetch_out_of_bounds_or_of_a_type_of_no_size_is_a_no_op() {
+    let cells = [LayerCell::default(); 3];
+    for i in [0, 2, 3, usize::MAX] {
+        prefetch(&cells, i);
+    }
+    prefetch(&[(); 4], 3);
+    prefetch::<u8>(&[], 0);
+}

@@ -79,7 +79,7 @@ fn run(config: &Config) -> Result<()> {
             h.faults.record("stale_points", turn.now, what);
         }
         // only the listener that woke this turn has notifications to drain (each drain is a
-        // system call; a turn comes per slice, some 25 a revolution): one that fired while
+        // system call; a turn comes per slice, some 27 a revolution): one that fired while
         // this turn ran wakes the next
         if turn.from(&slices_guard) {
             let _ = slices.heard();
