@@ -110,6 +110,14 @@ pub struct PlannerConfig {
     /// but on the report worlds the Turtlebot 2 came to a storefront's door at full speed and
     /// touched the pane past it (docs/glass.md).
     pub glass_slow_beside: bool,
+    /// A curtain's free end — a thin straight line of passable cells ending in free floor with
+    /// nothing beyond it within 0.6 m — is drawn as suspected glass for planning, so the body keeps
+    /// `margin_m` from it as from a wall's end: the door's jamb there may be a frameless pane,
+    /// seen only square on, which a body crossing the curtain at a slant sweeps unseen
+    /// ([`crate::jamb`]). A round body only: Spot, marking the end alone, came back to cross
+    /// at a worse slant, its corner sweeping the line beyond the end (two contacts more on the
+    /// tune worlds).
+    pub curtain_ends: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s
     /// (0: never).
@@ -187,6 +195,7 @@ impl Default for PlannerConfig {
             glass_slow_within_m: 1.0,
             glass_slow_ends: true,
             glass_slow_beside: false,
+            curtain_ends: true,
             recovery_after_s: 1.5,
             recovery_s: 2.0,
             recovery_mps: 0.15,

@@ -9,6 +9,7 @@
 //!   the route search and the dynamic window's footprint test both use;
 //! - [`dwa`]: the dynamic window and the trajectory scores (eq. 12);
 //! - [`look`]: where to drive so that suspected glass the route leads into gets seen;
+//! - [`jamb`]: a curtain's free end, which the planner keeps off as a pane's end;
 //! - [`Planner`]: inflation, clearance, route and dynamic window in order, with their buffers;
 //! - [`pilot`]: the service's step around the planner (input freshness, the goal into the robot
 //!   frame, foliage fusion, the fail-safe), which the service, `mimnav eval` and the lock-step
@@ -20,6 +21,7 @@ pub mod config;
 pub mod dwa;
 pub mod guard;
 pub mod inflate;
+pub mod jamb;
 pub mod look;
 pub mod params;
 pub mod pilot;
@@ -72,8 +74,11 @@ pub struct Planner {
     inflate: inflate::Scratch,
     clear: Clearance,
     route: Route,
-    /// The map with the cells under a rectangular body made free (see [`Planner::plan`]).
+    /// The map with the cells under a rectangular body made free and curtains' free ends drawn
+    /// as suspected glass (see [`Planner::plan_as`]).
     own: Vec<u8>,
+    /// The curtains' free ends of the last map ([`jamb::curtain_ends`]).
+    ends: Vec<usize>,
 }
 
 impl Planner {
@@ -89,6 +94,7 @@ impl Planner {
             clear: Clearance::default(),
             route: Route::default(),
             own: Vec::new(),
+            ends: Vec::new(),
         }
     }
 
@@ -145,14 +151,34 @@ impl Planner {
         // the robot, a corner's stray return — is a mapping error, and left in place it blocks
         // every motion at once (Spot stood still for the rest of its run). The round body keeps
         // the map as it is: its centre test stops it inside an obstacle, as before.
-        let classes = match p.robot.body() {
-            body @ Body::Rectangle { .. }
-                if free_under_body(classes, grid, &body, &mut self.own) =>
-            {
-                &self.own[..]
-            }
-            _ => classes,
+        let mut own = match p.robot.body() {
+            body @ Body::Rectangle { .. } => free_under_body(classes, grid, &body, &mut self.own),
+            _ => false,
         };
+        // the reach of the dynamic window and of the clearance it reads
+        let reach = p.reach_m();
+        let near = reach as f32 + 2.0 * grid.cell_m;
+        // a curtain's free end is kept off as a pane's end is ([`jamb`]): the pane that may go on
+        // from it is seen only square on, and a round body crossing the curtain at a slant sweeps
+        // it (a long body's corner sweeps the pane's line beyond the end too: marking the end
+        // alone turned Spot to cross at a worse slant, two contacts more on the tune worlds)
+        if p.planner.curtain_ends && matches!(p.robot.body(), Body::Round(_)) {
+            let read = if own { &self.own[..] } else { classes };
+            // ahead of the body's back: the rollouts drive forward
+            let behind = (p.robot.body().enclosing_radius_m() + p.planner.margin_m) as f32;
+            jamb::curtain_ends(read, grid, (behind.min(near), near), &mut self.ends);
+            if !self.ends.is_empty() {
+                if !own {
+                    self.own.clear();
+                    self.own.extend_from_slice(classes);
+                    own = true;
+                }
+                for &i in &self.ends {
+                    self.own[i] = cell_class::SUSPECTED_GLASS;
+                }
+            }
+        }
+        let classes = if own { &self.own[..] } else { classes };
         inflate::plan_cost(
             classes,
             grid,
@@ -161,21 +187,14 @@ impl Planner {
             &mut self.cost,
             &mut self.inflate,
         );
-        // the rollouts reach max_v · horizon; obstacles matter up to the footprint beyond
-        let reach = p.reach_m();
         // squeezing through, the margin is smaller from solids only: glass keeps the full one
         // (a pane goes on unseen; a wall or a bush does not)
         let glass_nearer = match mode {
             Mode::Tight => (self.params.planner.margin_m - p.planner.margin_m).max(0.0) as f32,
             Mode::Forward | Mode::Back => 0.0,
         };
-        self.clear.compute_glass_nearer(
-            classes,
-            grid,
-            reach as f32 + 2.0 * grid.cell_m,
-            5.0,
-            glass_nearer,
-        );
+        self.clear
+            .compute_glass_nearer(classes, grid, near, 5.0, glass_nearer);
         let route = if p.planner.route_cell_m > 0.0 {
             self.route.build(
                 &p.route_params(reach as f32),
@@ -481,6 +500,41 @@ mod tests {
             })
             .collect();
         confirm_obstacles(&mut classes, grid, rock);
+        assert!(!straight(planner.plan(
+            &classes,
+            grid,
+            0.3,
+            0.0,
+            (4.0, 0.0)
+        )));
+    }
+
+    #[test]
+    fn a_curtains_free_end_beside_the_way_is_kept_off_as_a_panes_end() {
+        // a curtain across the way ends in free floor 0.05 m left of the straight line to the
+        // goal: a pane may go on from its end unseen, so the body keeps its margin from the end
+        let grid = GridSpec {
+            cells: 200,
+            cell_m: 0.05,
+        };
+        let mut classes = vec![cell_class::FREE; grid.len()];
+        for k in 0..40 {
+            let y = 0.075 + k as f32 * 0.05;
+            if let Some((r, c)) = grid.cell_of(0.8, y) {
+                classes[grid.index(r, c)] = cell_class::PASSABLE;
+            }
+        }
+        let straight = |o: DwaOutcome| match o {
+            DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
+            DwaOutcome::Blocked => false,
+        };
+        let mut off = PlannerParams::default();
+        off.planner.curtain_ends = false;
+        let mut planner = Planner::new(off);
+        assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
+        let on = PlannerParams::default();
+        assert!(on.planner.curtain_ends);
+        let mut planner = Planner::new(on);
         assert!(!straight(planner.plan(
             &classes,
             grid,
