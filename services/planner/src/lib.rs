@@ -448,6 +448,14 @@ mod tests {
     use super::*;
     use mimnav_shared::topics::cell_class;
 
+    /// True when the plan drives on without turning.
+    fn straight(o: DwaOutcome) -> bool {
+        match o {
+            DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
+            DwaOutcome::Blocked => false,
+        }
+    }
+
     #[test]
     fn confirmed_obstacles_turn_grass_solid_and_bad_returns_are_ignored() {
         let grid = GridSpec {
@@ -486,10 +494,6 @@ mod tests {
         };
         let mut classes = vec![cell_class::PASSABLE; grid.len()];
         let mut planner = Planner::new(PlannerParams::default());
-        let straight = |o: DwaOutcome| match o {
-            DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
-            DwaOutcome::Blocked => false,
-        };
         assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
         let rock: Vec<(f32, f32)> = (-6..=6)
             .map(|k| {
@@ -524,10 +528,6 @@ mod tests {
                 classes[grid.index(r, c)] = cell_class::PASSABLE;
             }
         }
-        let straight = |o: DwaOutcome| match o {
-            DwaOutcome::Drive { omega, .. } => omega.abs() < 0.05,
-            DwaOutcome::Blocked => false,
-        };
         let mut off = PlannerParams::default();
         off.planner.curtain_ends = false;
         let mut planner = Planner::new(off);
