@@ -15,6 +15,8 @@
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
+use crate::route::Side;
+
 /// The square rings around a cell on which [`curtain_ends`] reads the line it ends, from the
 /// nearest to the farthest, m: a curtain's strings leave a ragged band 0.1–0.2 m thick in the map,
 /// so its direction is read beyond that, and out to where a tuft of grass has ended.
@@ -31,8 +33,8 @@ const BEYOND_COS: f32 = -0.3;
 /// Cells of a row [`curtain_ends`] tests for a string at once before it reads them one by one.
 const CHUNK: usize = 16;
 
-/// Most passable neighbours a line's end cell has (of eight); a cell inside a field of grass has
-/// more, and is passed over before any ring is read.
+/// Most passable or solid neighbours a line's end cell has (of eight); a cell inside a field of
+/// grass has more, and is passed over before any ring is read.
 const END_NEIGHBOURS: u32 = 5;
 
 /// Pushes into `out` the index of every passable (or solid: the mapper calls a curtain's tip solid
@@ -41,8 +43,8 @@ const END_NEIGHBOURS: u32 = 5;
 /// cells:
 /// - on each ring of [`LINE_M`] around it the passable and solid cells (unknown counts as free)
 ///   are at most [`THIN_CELLS`], at least half of them passable, with no glass or suspected
-///   glass, and lie to one side (as `route::one_side` reads a wall's end), the same side on
-///   every ring: the line it ends;
+///   glass, and lie to one side ([`Side`], as a wall's end does), the same side on every ring:
+///   the line it ends;
 /// - nearer than that, no glass, and nothing passable or solid beyond it (against the line's
 ///   direction): the band's last cells, ragged as it is.
 ///
@@ -146,32 +148,24 @@ fn ring(k: isize, mut f: impl FnMut(isize, isize) -> bool) -> bool {
 fn is_free_end(first: isize, far: isize, class: impl Fn(isize, isize) -> u8) -> bool {
     let line = |k: isize| -> Option<(f32, f32)> {
         // a curtain's line: thin, mostly strings, no glass (given up at the first cell too many)
-        let (mut count, mut passable) = (0u32, 0u32);
-        let (mut sx, mut sy) = (0.0f32, 0.0f32);
+        let (mut side, mut passable) = (Side::default(), 0u32);
         let thin = ring(k, |dr, dc| {
             let cl = class(dr, dc);
             if cell_class::is_glass(cl) {
                 return false;
             }
             if strings(cl) {
-                count += 1;
-                if count > THIN_CELLS {
+                side.add(dr, dc);
+                if side.count > THIN_CELLS {
                     return false;
                 }
                 passable += u32::from(cl == cell_class::PASSABLE);
-                let len = ((dr * dr + dc * dc) as f32).sqrt();
-                sx += dr as f32 / len;
-                sy += dc as f32 / len;
             }
             true
         });
-        if !thin {
-            return None;
-        }
-        // all to one side, as `route::one_side` reads a wall's end
-        let len = sx.hypot(sy);
-        (count > 0 && 2 * passable >= count && len >= 0.9 * count as f32)
-            .then(|| (sx / len, sy / len))
+        // all to one side, as a wall's end is
+        side.one_way()
+            .filter(|_| thin && 2 * passable >= side.count)
     };
     let Some(towards) = line(first) else {
         return false;

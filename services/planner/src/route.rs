@@ -660,23 +660,45 @@ fn free_ends(obstacle: &[f32], n: usize, cell_m: f32, ends: &mut Vec<f32>) -> bo
 
 /// The cells `hit` picks on the square ring `k` cells around a cell (Chebyshev distance `k`,
 /// offsets in rows and columns): the unit direction towards them, when there is at least one and
-/// they all lie to one side — their unit vectors sum to at least 0.9 of their count (a wall's end,
-/// one to three cells thick: 0.93–1; a wall's middle, with two opposite sides, and a corner, two
-/// legs at a right angle: 0.71–0.83, are not).
+/// they all lie to one side ([`Side`]).
 pub(crate) fn one_side(k: isize, mut hit: impl FnMut(isize, isize) -> bool) -> Option<(f32, f32)> {
-    let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0u32);
+    let mut side = Side::default();
     for dr in -k..=k {
         for dc in -k..=k {
             if dr.abs().max(dc.abs()) == k && hit(dr, dc) {
-                let len = ((dr * dr + dc * dc) as f32).sqrt();
-                sx += dr as f32 / len;
-                sy += dc as f32 / len;
-                count += 1;
+                side.add(dr, dc);
             }
         }
     }
-    let len = sx.hypot(sy);
-    (count > 0 && len >= 0.9 * count as f32).then(|| (sx / len, sy / len))
+    side.one_way()
+}
+
+/// The offsets of some cells around one, summed as unit vectors: they lie to one side when the
+/// sum is at least 0.9 of their count (a wall's end, one to three cells thick: 0.93–1; a wall's
+/// middle, with two opposite sides, and a corner, two legs at a right angle: 0.71–0.83, are not).
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct Side {
+    sx: f32,
+    sy: f32,
+    /// How many were added.
+    pub(crate) count: u32,
+}
+
+impl Side {
+    /// Adds the cell at offset (dr, dc), not (0, 0).
+    pub(crate) fn add(&mut self, dr: isize, dc: isize) {
+        let len = ((dr * dr + dc * dc) as f32).sqrt();
+        self.sx += dr as f32 / len;
+        self.sy += dc as f32 / len;
+        self.count += 1;
+    }
+
+    /// The unit direction towards the cells added, when there is at least one and they lie to
+    /// one side.
+    pub(crate) fn one_way(&self) -> Option<(f32, f32)> {
+        let len = self.sx.hypot(self.sy);
+        (self.count > 0 && len >= 0.9 * self.count as f32).then(|| (self.sx / len, self.sy / len))
+    }
 }
 
 #[cfg(test)]
