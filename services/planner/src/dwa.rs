@@ -19,7 +19,10 @@
 //!
 //! A body already inside its margin somewhere (a door it barely fits, a late detection) may
 //! come down to `planner.inside_margin_share` of the margin, and drives forward no faster than
-//! `planner.inside_margin_mps` until it is out of it.
+//! `planner.inside_margin_mps` until it is out of it — while the map has a route to the goal.
+//! Creeping on without one (the map may be wrong, or the world impassable), every point of the
+//! body keeps the whole margin: a body already inside it is held, and the pilot's
+//! `planner.no_route_stop_s` ends the wait.
 
 use mimnav_shared::grid::GridSpec;
 
@@ -218,7 +221,9 @@ fn search(
         let Some(start) = start_clear(d.x_m, 0.0) else {
             return DwaOutcome::Blocked;
         };
-        discs.push((d.x_m, (d.radius_m + pl.margin_m).min(start)));
+        // creeping on without a route, the whole margin (see `outline_need`)
+        let need = d.radius_m + pl.margin_m;
+        discs.push((d.x_m, if lost { need } else { need.min(start) }));
     }
     // a centre this clear leaves every disc clear (a cell of slack for the grid's steps)
     let centre_enough = discs
@@ -241,7 +246,10 @@ fn search(
         closest = closest.min(start);
     }
     let full = pl.margin_m + 0.5 * OUTLINE_SPACING_M;
-    let outline_need = if closest >= full {
+    // no route on the map (the world may be impassable): creeping on by the straight line keeps
+    // the whole margin — inside it already, the body is blocked (a long body turning there
+    // swung its end into a bush it was already inside the margin of, on impassable hedges)
+    let outline_need = if closest >= full || lost {
         full
     } else if closest >= floor {
         floor
@@ -756,5 +764,44 @@ mod tests {
         // the same wall beyond the margin: not limited
         let beyond = speed(&p, -0.6);
         assert!(beyond > 0.35, "{beyond}");
+    }
+
+    #[test]
+    fn creeping_on_without_a_route_keeps_the_whole_margin() {
+        // Spot 7 cm from a wall on its right, inside its margin, the goal walled in ahead: the
+        // map has no route to it. Routed (or with no route searched) the window lets the body
+        // on along the wall inside its margin; lost, it keeps the whole margin, so it is held:
+        // the world may be impassable (on impassable hedges Spot crept into a bush).
+        let goal = (3.0, 0.0);
+        let (grid, classes) = map(|x, y| {
+            let ring = ((x - goal.0 as f32).hypot(y) - 0.6).abs() < 0.06;
+            match (y + 0.345).abs() < 0.03 || ring {
+                true => cell_class::SOLID,
+                false => cell_class::FREE,
+            }
+        });
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
+        let p = spot();
+        let mut route = Route::default();
+        route.build(
+            &crate::route::RouteParams {
+                cell_m: 0.2,
+                cost_weight: 1.0,
+                ..p.route_params(0.0)
+            },
+            grid,
+            &classes,
+            &cost,
+            (goal.0 as f32, goal.1 as f32),
+        );
+        assert!(!route.value(0.0, 0.0).is_finite(), "the goal is walled in");
+        assert!(matches!(
+            plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, None),
+            DwaOutcome::Drive { v, .. } if v > 0.05
+        ));
+        assert_eq!(
+            plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, Some(&route)),
+            DwaOutcome::Blocked
+        );
     }
 }
