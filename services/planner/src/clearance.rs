@@ -3,6 +3,7 @@
 //! and the route search finds where the footprint fits with it on the coarse grid
 //! ([`crate::route`]); both import it from here, so neither imports the other for it.
 
+use mimnav_shared::config::Body;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
 
@@ -19,6 +20,9 @@ pub struct Clearance {
     /// Map side, cells.
     cells: usize,
     data: Vec<f32>,
+    /// Solid and glass cells beside a rectangular body (robot frame, m) and how far their
+    /// centres are from it now: see [`Clearance::set_guard`].
+    guard: Vec<(f64, f64, f64)>,
 }
 
 impl Clearance {
@@ -63,6 +67,50 @@ impl Clearance {
             );
         }
         chamfer(&mut self.data, side, grid.cell_m);
+    }
+
+    /// Keeps the solid and glass cells of `classes` whose centres lie within `within_m` of
+    /// `body` (at the map's centre, heading along x) but not under it, with that distance: the
+    /// cells a rollout must not bring the body nearer ([`Clearance::guard`]). The clearance is
+    /// a cell centre's and a cell stands for anything within it, so beside a body already
+    /// inside its margin a corner can sweep into what a cell holds while every cell it passes
+    /// keeps its clearance (Spot, turning beside a bush and beside a pane on impassable
+    /// worlds).
+    pub fn set_guard(&mut self, classes: &[u8], grid: GridSpec, body: &Body, within_m: f64) {
+        self.guard.clear();
+        let reach = (body.enclosing_radius_m() + within_m) as f32;
+        let (Some((r0, c0)), Some((r1, c1))) =
+            (grid.cell_of(-reach, -reach), grid.cell_of(reach, reach))
+        else {
+            return;
+        };
+        if classes.len() < grid.len() {
+            return;
+        }
+        for r in r0.min(r1)..=r0.max(r1) {
+            for c in c0.min(c1)..=c0.max(c1) {
+                if !cell_class::blocks(classes[grid.index(r, c)]) {
+                    continue;
+                }
+                let (x, y) = grid.center_of(r, c);
+                let (x, y) = (f64::from(x), f64::from(y));
+                let d = body.signed_distance(x, y);
+                // under the body: a mapping error ([`crate::Planner::plan_as`] frees it)
+                if (0.0..within_m).contains(&d) {
+                    self.guard.push((x, y, d));
+                }
+            }
+        }
+    }
+
+    /// No cell guarded (a round body: its clearance is exact at its centre).
+    pub fn no_guard(&mut self) {
+        self.guard.clear();
+    }
+
+    /// The cells [`Clearance::set_guard`] kept: (x, y, distance from the body now).
+    pub fn guard(&self) -> &[(f64, f64, f64)] {
+        &self.guard
     }
 
     /// The clearance of map cell (r, c), m; 0 outside the window (never drive there).
@@ -352,6 +400,44 @@ pub(crate) mod tests {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             proptest::prop_assert_eq!(bits(&together), bits(&by_rows));
         }
+    }
+
+    #[test]
+    fn the_guard_keeps_the_cells_just_beside_a_body_and_not_those_under_it() {
+        let body = Body::Rectangle {
+            length_m: 1.1,
+            width_m: 0.5,
+        };
+        // a wall along the body's right side 4 cm off it, a stray return under it, a post
+        // 0.3 m ahead of its nose
+        let (grid, classes) = map(|x, y| {
+            let wall = (y + 0.29).abs() < 0.02 && x.abs() < 0.3;
+            let under = x.abs() < 0.03 && y.abs() < 0.03;
+            let post = (x - 0.85).abs() < 0.03 && y.abs() < 0.03;
+            match wall || under || post {
+                true => cell_class::SOLID,
+                false => cell_class::FREE,
+            }
+        });
+        let mut clear = Clearance::default();
+        clear.set_guard(&classes, grid, &body, 0.1);
+        let guard = clear.guard();
+        assert!(!guard.is_empty());
+        for &(x, y, d) in guard {
+            assert!((0.0..0.1).contains(&d), "({x}, {y}) {d}");
+            assert!(y < -0.25, "only the wall: ({x}, {y}) {d}");
+            assert!((body.signed_distance(x, y) - d).abs() < 1e-12);
+        }
+        // every wall cell is kept
+        let wall_cells = (classes.iter().enumerate())
+            .filter(|&(i, &c)| {
+                let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+                c == cell_class::SOLID && y < -0.2 && x.abs() < 0.3
+            })
+            .count();
+        assert_eq!(guard.len(), wall_cells);
+        clear.no_guard();
+        assert!(clear.guard().is_empty());
     }
 
     #[test]

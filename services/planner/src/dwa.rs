@@ -23,6 +23,13 @@
 //! Creeping on without one (the map may be wrong, or the world impassable), every point of the
 //! body keeps the whole margin: a body already inside it is held, and the pilot's
 //! `planner.no_route_stop_s` ends the wait.
+//!
+//! The clearance is a cell centre's, and a cell stands for anything within it, so a body close
+//! to a cell can sweep into what the cell holds while every cell its outline passes keeps its
+//! clearance: a long body turning swings its ends sideways. So the solid and glass cells just
+//! beside a rectangular body are also tested one by one ([`Clearance::set_guard`]): no rollout
+//! brings a cell's centre nearer than [`guard_m`] (half its diagonal and a centimetre), or
+//! nearer than it already is.
 
 use mimnav_shared::grid::GridSpec;
 
@@ -136,6 +143,13 @@ pub fn back_out(
         gear,
         true,
     )
+}
+
+/// How near a rectangular body may bring the centre of a solid or glass cell, m: half the
+/// cell's diagonal (what the cell holds may lie anywhere in it) and a centimetre. A cell already
+/// nearer may come no nearer.
+pub fn guard_m(grid: GridSpec) -> f64 {
+    0.5 * std::f64::consts::SQRT_2 * f64::from(grid.cell_m) + 0.01
 }
 
 /// Backing out, a metre of clearance gained for the body is worth this many metres of goal
@@ -287,6 +301,15 @@ fn search(
             false
         })
     };
+    // the cells beside the body: none may come nearer than `guard_m` (or than it is now)
+    let (guard, guard_at) = (clear.guard(), guard_m(grid));
+    let body = p.robot.body();
+    let guarded = |x: f64, y: f64, hc: f64, hs: f64| {
+        guard.iter().any(|&(gx, gy, now)| {
+            let (dx, dy) = (gx - x, gy - y);
+            body.signed_distance(hc * dx + hs * dy, -hs * dx + hc * dy) < now.min(guard_at) - 1e-3
+        })
+    };
     let too_close = |x: f64, y: f64, hc: f64, hs: f64| {
         discs.iter().any(|&(dx, need)| {
             grid.cell_of((x + hc * dx) as f32, (y + hs * dx) as f32)
@@ -355,7 +378,9 @@ fn search(
                         feasible = false;
                         break;
                     }
-                } else if centre_clear < centre_enough && too_close(x, y, hc, hs) {
+                } else if centre_clear < centre_enough && too_close(x, y, hc, hs)
+                    || !guard.is_empty() && guarded(x, y, hc, hs)
+                {
                     feasible = false;
                     break;
                 }
@@ -764,6 +789,75 @@ mod tests {
         // the same wall beyond the margin: not limited
         let beyond = speed(&p, -0.6);
         assert!(beyond > 0.35, "{beyond}");
+    }
+
+    #[test]
+    fn a_long_body_never_brings_a_cell_beside_it_nearer_than_the_cell_can_hold() {
+        // Spot creeping on with a bush's edge just off its rear left corner and the goal to its
+        // right: turning right swings that corner into the bush. The clearance is a cell
+        // centre's, so each cell the corner passes may keep its clearance while the corner
+        // sweeps into what the cell holds; the guarded cells stop that.
+        let p = spot();
+        let body = p.robot.body();
+        let blob = (-0.45f32, 0.38f32);
+        let (grid, classes) = map(|x, y| match (x - blob.0).hypot(y - blob.1) < 0.1 {
+            true => cell_class::SOLID,
+            false => cell_class::FREE,
+        });
+        let solid: Vec<(f64, f64)> = (0..grid.cells)
+            .flat_map(|r| (0..grid.cells).map(move |c| (r, c)))
+            .filter(|&(r, c)| classes[grid.index(r, c)] == cell_class::SOLID)
+            .map(|(r, c)| {
+                let (x, y) = grid.center_of(r, c);
+                (f64::from(x), f64::from(y))
+            })
+            .collect();
+        let nearest = |x: f64, y: f64, hc: f64, hs: f64| {
+            (solid.iter())
+                .map(|&(sx, sy)| {
+                    let (dx, dy) = (sx - x, sy - y);
+                    body.signed_distance(hc * dx + hs * dy, -hs * dx + hc * dy)
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        // the nearest a motion brings the blob over the horizon, rolled out as the window does
+        let rolled = |v: f64, w: f64| {
+            let dt = p.planner.dt_s;
+            let (mut x, mut y, mut hc, mut hs) = (0.0f64, 0.0f64, 1.0f64, 0.0f64);
+            let mut least = f64::INFINITY;
+            for _ in 0..(p.planner.horizon_s / dt).ceil() as usize {
+                let (s, c) = (w * dt).sin_cos();
+                (hc, hs) = (hc * c - hs * s, hs * c + hc * s);
+                x += v * hc * dt;
+                y += v * hs * dt;
+                least = least.min(nearest(x, y, hc, hs));
+            }
+            least
+        };
+        let now = nearest(0.0, 0.0, 1.0, 0.0);
+        let goal = (-0.5, -3.0);
+        let floor = now.min(guard_m(grid)) - 1e-3;
+        let (mut clear, cost) = open_cost(&classes, grid, 4.0);
+        let unguarded = match plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, None) {
+            DwaOutcome::Drive { v, omega, .. } => rolled(v, omega),
+            o => panic!("{o:?}"),
+        };
+        assert!(
+            unguarded < floor,
+            "the clearance alone lets the corner in: {unguarded} (now {now})"
+        );
+        clear.set_guard(&classes, grid, &body, guard_m(grid) + 0.06);
+        assert!(!clear.guard().is_empty());
+        match plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, None) {
+            DwaOutcome::Drive { v, omega, .. } => {
+                let least = rolled(v, omega);
+                assert!(
+                    least >= floor,
+                    "({v}, {omega}) brings it to {least} (now {now})"
+                );
+            }
+            DwaOutcome::Blocked => {}
+        }
     }
 
     #[test]

@@ -155,6 +155,15 @@ impl Planner {
             body @ Body::Rectangle { .. } => free_under_body(classes, grid, &body, &mut self.own),
             _ => false,
         };
+        // the cells beside a rectangular body that no rollout may bring it nearer, read from the
+        // map before anything under the body is freed
+        match p.robot.body() {
+            body @ Body::Rectangle { .. } => {
+                let within = dwa::guard_m(grid) + GUARD_BAND_M;
+                self.clear.set_guard(classes, grid, &body, within);
+            }
+            _ => self.clear.no_guard(),
+        }
         // the reach of the dynamic window and of the clearance it reads
         let reach = p.reach_m();
         let near = reach as f32 + 2.0 * grid.cell_m;
@@ -234,6 +243,10 @@ impl Planner {
         &self.route
     }
 }
+
+/// Beyond [`dwa::guard_m`], how far from a rectangular body a cell is still guarded, m: farther
+/// ones the clearance keeps off.
+const GUARD_BAND_M: f64 = 0.06;
 
 /// Which plan [`Planner::plan_as`] makes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
