@@ -449,6 +449,18 @@ mod tests {
             .map(|&c| if c == cell_class::SOLID { 255 } else { 0 })
             .collect();
         let p = PlannerParams::default();
+        let route = route_to(&p, grid, classes, &cost, goal);
+        plan(&p, grid, &cost, &clear, v0, 0.0, goal, Some(&route))
+    }
+
+    /// The route to `goal` on 0.2 m cells, each metre's cost weighed once.
+    fn route_to(
+        p: &PlannerParams,
+        grid: GridSpec,
+        classes: &[u8],
+        cost: &[u8],
+        goal: (f64, f64),
+    ) -> Route {
         let mut route = Route::default();
         route.build(
             &crate::route::RouteParams {
@@ -458,10 +470,10 @@ mod tests {
             },
             grid,
             classes,
-            &cost,
+            cost,
             (goal.0 as f32, goal.1 as f32),
         );
-        plan(&p, grid, &cost, &clear, v0, 0.0, goal, Some(&route))
+        route
     }
 
     #[test]
@@ -876,18 +888,7 @@ mod tests {
         });
         let (clear, cost) = open_cost(&classes, grid, 4.0);
         let p = spot();
-        let mut route = Route::default();
-        route.build(
-            &crate::route::RouteParams {
-                cell_m: 0.2,
-                cost_weight: 1.0,
-                ..p.route_params(0.0)
-            },
-            grid,
-            &classes,
-            &cost,
-            (goal.0 as f32, goal.1 as f32),
-        );
+        let route = route_to(&p, grid, &classes, &cost, goal);
         assert!(!route.value(0.0, 0.0).is_finite(), "the goal is walled in");
         assert!(matches!(
             plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, None),
