@@ -775,19 +775,17 @@ mod tests {
     use super::*;
     use mimnav_shared::pose::pose2;
 
-    /// A spike straight to the right of the sensor, 0.5 m off: a pane along y = −0.5 m.
-    const SIDE: Sighting = Sighting {
-        x: 0.0,
-        y: -0.5,
-        nx: 0.0,
-        ny: -1.0,
-    };
-
     /// A pane along y = −0.5 m beside a robot at the origin heading along x.
     fn pane_beside() -> Panes {
         let mut panes = Panes::new(0.05);
+        let sighting = Sighting {
+            x: 0.0,
+            y: -0.5,
+            nx: 0.0,
+            ny: -1.0,
+        };
         let at = pose2(0.0, 0.0, 0.0);
-        panes.observe(&at, 1, &[SIDE], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+        panes.observe(&at, 1, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
         assert_eq!(panes.len(), 1);
         panes
     }
@@ -859,10 +857,16 @@ mod tests {
                 }
             }
             assert!(panes.is_empty());
+            let sighting = Sighting {
+                x: 0.0,
+                y: -0.5,
+                nx: 0.0,
+                ny: -1.0,
+            };
             for x in [2.0, 2.05] {
                 t += 1;
                 let at = pose2(x, 0.0, 0.0);
-                panes.observe(&at, t, &[SIDE], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+                panes.observe(&at, t, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
             }
             assert_eq!(panes.len(), 1);
             let mut open: Vec<f64> = panes.panes[0].open.values().map(|e| e.0).collect();
@@ -888,10 +892,17 @@ mod tests {
             cells: 200,
             cell_m: 0.05,
         };
-        // seen in two revolutions: drawn on along its line
-        let mut panes = pane_beside();
-        let at = pose2(0.0, 0.0, 0.0);
-        panes.observe(&at, 2, &[SIDE], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+        let mut panes = Panes::new(0.05);
+        let sighting = Sighting {
+            x: 0.0,
+            y: -0.5,
+            nx: 0.0,
+            ny: -1.0,
+        };
+        for t in [1, 2] {
+            let at = pose2(0.0, 0.0, 0.0);
+            panes.observe(&at, t, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
+        }
         let line = |classes: &mut [u8], from: f32, to: f32| {
             let mut x = from;
             while x <= to {
