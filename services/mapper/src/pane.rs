@@ -23,15 +23,9 @@
 //!   from the revolutions before the pane was seen (`HISTORY` of them), tested once when it is
 //!   first drawn: a pane is seen first where the foot of the sensor's perpendicular reaches
 //!   glass, and on the way along a partition the foot may have crossed its opening before that;
-//! - a solid or passable cell of this revolution on the line (a frame, a wall across it, a
-//!   curtain in the way: the pane ends there), or an unknown cell that something nearer hides
-//!   (the inside of the pillar a pane meets: its far side is not this pane's to close).
-//!
-//! A wall or a pillar *on* the line does not end it: a stretch of the line longer than a post,
-//! solid at both ends and solid or hidden between them, is the same partition, and the line is
-//! drawn on from its far end as from evidence (an office's panes, walls and pillars stand on one
-//! line; Spot, beside the gap past a partition's wall, turned into a pane beyond it it had never
-//! faced).
+//! - a solid or passable cell of this revolution on the line (a frame, a wall, a curtain in the
+//!   way: the pane ends there), or an unknown cell that something nearer hides (the inside of the
+//!   pillar a pane meets: its far side is not this pane's to close).
 //!
 //! Past the part of an opening seen squarely the line is drawn on again (up to `glass_extend_m`
 //! from it): an opening is as wide as it was seen — unless the line meets something solid first
@@ -65,10 +59,8 @@ const BEYOND_M: f64 = 0.25;
 /// spike does not draw a line across the map.
 const MIN_REVOLUTIONS: u32 = 2;
 /// A stretch of a pane's line between what was seen open and a solid no longer than this is the
-/// rest of a passage beside a frame, not drawn; a longer one is drawn (suspected), m. Faced at
-/// its middle, a door up to twice this wide is drawn open. 1.8 m (stop 41) let the 1.5 m pane
-/// between a partition's opening and the room's wall look open (stop 55).
-const PASSAGE_M: f64 = 1.0;
+/// rest of a passage beside a frame, not drawn; a longer one is drawn (suspected), m.
+const PASSAGE_M: f64 = 1.8;
 /// Lines nearer the sensor than this are not tested for openings (the beams cross them at
 /// angles the robot's own motion blurs), m.
 const MIN_TEST_M: f64 = 0.3;
@@ -243,8 +235,6 @@ pub struct Panes {
     reach: Vec<bool>,
     /// Scratch per bin: a post the extension passes.
     post: Vec<bool>,
-    /// Scratch per bin: a wall on the line, from whose ends the extension reaches on.
-    wall: Vec<bool>,
     /// The near-horizontal rings of past revolutions, newest last: a pane is seen first where
     /// the foot of the sensor's perpendicular reaches glass, and an opening the foot passed
     /// before that (on the way along a partition) would otherwise be drawn over as suspected
@@ -553,8 +543,7 @@ impl Panes {
                 lo = lo.min(s);
                 hi = hi.max(s);
             }
-            // beyond `extend_m`: a wall on the line restarts the reach from its end
-            let (lo, hi) = (lo - 2.0 * extend_m, hi + 2.0 * extend_m);
+            let (lo, hi) = (lo - extend_m, hi + extend_m);
             let n = ((hi - lo) / bin_m).ceil() as usize + 1;
             self.bins.clear();
             self.bins.resize(n, UNSEEN);
@@ -593,8 +582,6 @@ impl Panes {
             // posts and none of the panes between them, and Spot walked into one)
             self.post.clear();
             self.post.resize(n, false);
-            self.wall.clear();
-            self.wall.resize(n, false);
             let post_bins = (mullion_m / bin_m).round() as usize;
             let mut b = 0;
             while b < n {
@@ -609,24 +596,6 @@ impl Panes {
                 let inside = from > 0 && b < n && self.bin_cells[from - 1].is_some();
                 if inside && b - from <= post_bins && self.bin_cells[b].is_some() {
                     self.post[from..b].fill(true);
-                } else if post_bins > 0 && b - from > post_bins && {
-                    // solid at both ends, and between them solid or what the solid hides (the
-                    // inside of a pillar)
-                    let cells = &self.bin_cells[from..b];
-                    let solid =
-                        |c: &Option<usize>| c.is_some_and(|i| classes[i] == cell_class::SOLID);
-                    solid(&cells[0])
-                        && solid(&cells[cells.len() - 1])
-                        && cells.iter().all(|c| {
-                            c.is_some_and(|i| {
-                                classes[i] == cell_class::SOLID
-                                    || (classes[i] == cell_class::UNKNOWN && occluded(i))
-                            })
-                        })
-                } {
-                    // a wall on the pane's line: the same partition, which may go on in glass
-                    // past the wall's end (an office's panes, wall and pillars on one line)
-                    self.wall[from..b].fill(true);
                 }
             }
             // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
@@ -647,10 +616,6 @@ impl Panes {
                         }
                         OPEN => {
                             run = Some((0, true));
-                            run_bins.clear();
-                        }
-                        _ if self.wall[b] => {
-                            run = Some((0, false));
                             run_bins.clear();
                         }
                         _ if self.post[b] => {
@@ -882,80 +847,6 @@ mod tests {
         assert!(open.windows(2).all(|w| w[1] - w[0] <= 0.16), "{open:?}");
         // without those revolutions nothing says the line is open there
         assert!(run(false).is_empty());
-    }
-
-    #[test]
-    fn a_pane_line_goes_on_past_a_wall_on_it_and_stops_at_one_across_it() {
-        // a pane seen at x = 0 on y = -0.5 (two revolutions), a wall on the same line from
-        // x = 0.5 to 1.5: an office's partition, which may go on in glass past the wall's end
-        let grid = GridSpec {
-            cells: 200,
-            cell_m: 0.05,
-        };
-        let mut panes = Panes::new(0.05);
-        let sighting = Sighting {
-            x: 0.0,
-            y: -0.5,
-            nx: 0.0,
-            ny: -1.0,
-        };
-        for t in [1, 2] {
-            let at = pose2(0.0, 0.0, 0.0);
-            panes.observe(&at, t, &[sighting], &[(0.0, -0.5, 0)], &[], 0.035, 10.0);
-        }
-        let line = |classes: &mut [u8], from: f32, to: f32| {
-            let mut x = from;
-            while x <= to {
-                if let Some((r, c)) = grid.cell_of(x, -0.5) {
-                    classes[grid.index(r, c)] = cell_class::SOLID;
-                }
-                x += 0.01;
-            }
-        };
-        let suspected = |classes: &[u8], from: f32, to: f32| {
-            let mut x = from;
-            let mut n = 0;
-            while x <= to {
-                let (r, c) = grid.cell_of(x, -0.5).expect("on the map");
-                n += usize::from(classes[grid.index(r, c)] == cell_class::SUSPECTED_GLASS);
-                x += 0.05;
-            }
-            n
-        };
-        // extending 1.5 m, posts up to 0.2 m; every unknown cell hidden or none
-        let draw = |panes: &mut Panes, classes: &mut [u8], hidden: bool| {
-            let mut cost = vec![0u8; grid.len()];
-            let at = pose2(0.0, 0.0, 0.0);
-            panes.draw(&at, grid, 1.5, 0.2, classes, &mut cost, |_| hidden);
-        };
-        let mut classes = vec![cell_class::FREE; grid.len()];
-        line(&mut classes, 0.5, 1.5);
-        draw(&mut panes, &mut classes, false);
-        // between the evidence and the wall, and past the wall's end up to 1.5 m from it
-        assert!(suspected(&classes, 0.1, 0.4) >= 5);
-        assert!(
-            suspected(&classes, 1.6, 2.9) >= 24,
-            "{}",
-            suspected(&classes, 1.6, 2.9)
-        );
-        assert_eq!(suspected(&classes, 3.2, 3.6), 0);
-        // a wall across the line instead (a room's wall, crossed in a cell or two, then the
-        // line runs on into what that wall hides): nothing drawn past it
-        let mut classes = vec![cell_class::FREE; grid.len()];
-        for y in [-1.0f32, -0.75, -0.5, -0.25, 0.0] {
-            if let Some((r, c)) = grid.cell_of(1.0, y) {
-                classes[grid.index(r, c)] = cell_class::SOLID;
-            }
-        }
-        for x in [
-            1.05f32, 1.1, 1.15, 1.2, 1.25, 1.3, 1.35, 1.4, 1.45, 1.5, 1.55,
-        ] {
-            if let Some((r, c)) = grid.cell_of(x, -0.5) {
-                classes[grid.index(r, c)] = cell_class::UNKNOWN;
-            }
-        }
-        draw(&mut panes, &mut classes, true);
-        assert_eq!(suspected(&classes, 1.05, 2.0), 0);
     }
 
     #[test]
