@@ -179,10 +179,12 @@ fn search(
     let (robot, pl) = (&p.robot, &p.planner);
     let routed = route.filter(|r| r.value(0.0, 0.0).is_finite());
     let mut speed_cap = speed_cap;
-    let lost = route.is_some() && routed.is_none();
+    // no way to the goal on the map: the one beyond it when there is one, else the straight line
+    let lost = route.is_some() && routed.is_none_or(Route::beyond);
     if lost {
-        // the map closes every way: drive on by the straight line (the paper's DWA), no faster
-        // than beside glass — the way is open only if the map is wrong
+        // the map closes every way: drive on towards what is not on the map yet, or by the
+        // straight line (the paper's DWA), no faster than beside glass — the way is open only
+        // if the map is wrong or it lies beyond the map
         speed_cap = speed_cap.min(pl.glass_slow_mps);
     }
     let route = routed;
@@ -889,7 +891,8 @@ mod tests {
         let (clear, cost) = open_cost(&classes, grid, 4.0);
         let p = spot();
         let route = route_to(&p, grid, &classes, &cost, goal);
-        assert!(!route.value(0.0, 0.0).is_finite(), "the goal is walled in");
+        // no way on the map: the lengths lead off it, driven as without a route
+        assert!(route.beyond(), "the goal is walled in");
         assert!(matches!(
             plan(&p, grid, &cost, &clear, 0.2, 0.0, goal, None),
             DwaOutcome::Drive { v, .. } if v > 0.05

@@ -242,6 +242,12 @@ impl Planner {
     pub fn route(&self) -> &Route {
         &self.route
     }
+
+    /// Sets the discs of suspected glass given up (x, y, radius; robot frame, m) for the plans
+    /// that follow ([`Route::set_given_up`]).
+    pub fn set_given_up(&mut self, discs: impl IntoIterator<Item = (f32, f32, f32)>) {
+        self.route.set_given_up(discs);
+    }
 }
 
 /// Beyond [`dwa::guard_m`], how far from a rectangular body a cell is still guarded, m: farther

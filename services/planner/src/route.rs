@@ -88,6 +88,12 @@ pub struct Route {
     /// The moves each coarse cell may take, bit j for `moves[j]`: its target and the cells it
     /// passes beside are open.
     allowed: Vec<u16>,
+    /// Suspected glass given up (`planner.give_up_after_s`): discs (x, y, radius; robot frame,
+    /// m) in which a coarse cell holding suspected glass and nothing solid is closed.
+    given_up: Vec<(f32, f32, f32)>,
+    /// The goal is on the map and the robot has no way to it there: the lengths lead off the
+    /// map (see [`Route::beyond`]).
+    beyond: bool,
 }
 
 impl Default for Route {
@@ -115,6 +121,8 @@ impl Default for Route {
             near: Vec::new(),
             near_for: (0, 0, 0),
             allowed: Vec::new(),
+            given_up: Vec::new(),
+            beyond: false,
         }
     }
 }
@@ -157,6 +165,26 @@ pub struct RouteParams {
 }
 
 impl Route {
+    /// Sets the discs of suspected glass given up (x, y, radius; robot frame, m) for the next
+    /// [`Route::build`]: a coarse cell there holding suspected glass cannot be crossed. Unlike
+    /// drawing the stretch as glass, the robot standing in front of it keeps its own cells
+    /// (glass would close them through the clearance the footprint needs) and the route
+    /// leads it away.
+    pub fn set_given_up(&mut self, discs: impl IntoIterator<Item = (f32, f32, f32)>) {
+        self.given_up.clear();
+        self.given_up.extend(discs);
+    }
+
+    /// The goal is on the map but the map holds no way to it from the robot, and the lengths
+    /// lead off the map instead, through its border (assumed open beyond, as for a goal beyond
+    /// the map): a way round may lie outside the local map (a partition's opening behind the
+    /// robot). The planner drives it as it drives without a route — slowly, keeping its whole
+    /// margin, and stopping `blocked` after `planner.no_route_stop_s` — but towards what it has
+    /// not seen rather than into what holds it.
+    pub fn beyond(&self) -> bool {
+        self.beyond
+    }
+
     /// Computes the route lengths to `goal` (robot frame, m) on a map of cell `classes` with
     /// planning cost `cost` (0–255 per map cell).
     pub fn build(
@@ -181,6 +209,7 @@ impl Route {
         self.dist.clear();
         self.dist.resize(m, f32::INFINITY);
         self.seeded.clear();
+        self.beyond = false;
         let n = grid.cells;
         if classes.len() < grid.len() || cost.len() < grid.len() {
             return;
@@ -256,6 +285,20 @@ impl Route {
         for (open, &d) in self.open.iter_mut().zip(&obstacle) {
             *open = d > 0.0 && d >= need;
         }
+        // suspected glass given up: its own coarse cells closed (after their transforms,
+        // `soft` is 0 in a cell holding suspected glass, `obstacle` only in one holding more)
+        if !self.given_up.is_empty() && suspects && any_suspected {
+            let cs = self.coarse;
+            for (k, open) in self.open.iter_mut().enumerate() {
+                if !(*open && soft[k] == 0.0 && obstacle[k] > 0.0) {
+                    continue;
+                }
+                let (x, y) = cs.center_of(k / cells, k % cells);
+                if (self.given_up.iter()).any(|&(gx, gy, gr)| (x - gx).hypot(y - gy) <= gr) {
+                    *open = false;
+                }
+            }
+        }
         // what a metre entering each cell costs, once per cell instead of once per move: its
         // planning cost, and extra for lacking room to turn (from anything glass) and where the
         // footprint would touch suspected glass — within half a coarse cell more, so the band
@@ -298,24 +341,8 @@ impl Route {
         // the goal's own cell, or the border when the goal lies outside the map
         let cs = self.coarse;
         let h = cs.half_extent_m();
-        if goal.0.abs() < h && goal.1.abs() < h {
-            // the goal's cell and its neighbours, so values near the goal interpolate exactly
-            if let Some((r, c)) = cs.cell_of(goal.0, goal.1) {
-                for rr in r.saturating_sub(1)..(r + 2).min(cells) {
-                    for cc in c.saturating_sub(1)..(c + 2).min(cells) {
-                        let (x, y) = cs.center_of(rr, cc);
-                        self.seed(rr * cells + cc, (goal.0 - x).hypot(goal.1 - y));
-                    }
-                }
-            }
-        } else {
-            for k in 0..cells {
-                for (r, c) in [(0, k), (cells - 1, k), (k, 0), (k, cells - 1)] {
-                    let (x, y) = cs.center_of(r, c);
-                    self.seed(r * cells + c, (goal.0 - x).hypot(goal.1 - y));
-                }
-            }
-        }
+        let inside = goal.0.abs() < h && goal.1.abs() < h;
+        self.seed_goal(goal, false);
         let len = |dr: i32, dc: i32| f64::from(dr * dr + dc * dc).sqrt() as f32 * cs.cell_m;
         let lengths: [f32; 16] = std::array::from_fn(|j| len(MOVES[j].0, MOVES[j].1));
         // The open cells in a grid padded by two closed cells on every side, so a move needs no
@@ -359,6 +386,51 @@ impl Route {
             }
         }
         self.search(w, wanted);
+        // A goal on the map with no way to it from the robot may have one beyond the map (a
+        // partition's opening behind the robot, out of the local map): then the border is
+        // searched from too, as for a goal beyond the map, and the robot is led off the map
+        // towards what it has not seen rather than held where it stands.
+        if inside && self.value(0.0, 0.0).is_infinite() {
+            self.dist.fill(f32::INFINITY);
+            self.seeded.clear();
+            self.seed_goal(goal, true);
+            self.wanted.fill(false);
+            self.search(w, 0);
+            self.beyond = self.value(0.0, 0.0).is_finite();
+        }
+    }
+
+    /// Seeds the goal's cell and its neighbours (a goal on the map), and the border cells with
+    /// their straight-line distance to the goal (a goal beyond it, or `border`).
+    fn seed_goal(&mut self, goal: (f32, f32), border: bool) {
+        let (cs, cells) = (self.coarse, self.coarse.cells);
+        let h = cs.half_extent_m();
+        if goal.0.abs() < h && goal.1.abs() < h {
+            // the goal's cell and its neighbours, so values near the goal interpolate exactly
+            if let Some((r, c)) = cs.cell_of(goal.0, goal.1) {
+                for rr in r.saturating_sub(1)..(r + 2).min(cells) {
+                    for cc in c.saturating_sub(1)..(c + 2).min(cells) {
+                        let (x, y) = cs.center_of(rr, cc);
+                        self.seed(rr * cells + cc, (goal.0 - x).hypot(goal.1 - y));
+                    }
+                }
+            }
+        } else {
+            self.seed_border(goal);
+        }
+        if border {
+            self.seed_border(goal);
+        }
+    }
+
+    fn seed_border(&mut self, goal: (f32, f32)) {
+        let (cs, cells) = (self.coarse, self.coarse.cells);
+        for k in 0..cells {
+            for (r, c) in [(0, k), (cells - 1, k), (k, 0), (k, cells - 1)] {
+                let (x, y) = cs.center_of(r, c);
+                self.seed(r * cells + c, (goal.0 - x).hypot(goal.1 - y));
+            }
+        }
     }
 
     /// Dijkstra's search from the seeded cells with a bucket queue (Dial's): every move costs at
@@ -955,10 +1027,9 @@ mod tests {
             })
         };
         let closed = wall(0.0);
-        assert!(
-            route(&closed, 0.0).value(0.0, 0.0).is_infinite(),
-            "suspected closes"
-        );
+        // no way on the map (the line runs from border to border): the lengths lead off it
+        assert!(route(&closed, 0.0).beyond(), "suspected closes");
+        assert!(!route(&closed, 10.0).beyond());
         let r = route(&closed, 10.0);
         let v = r.value(0.0, 0.0);
         // the straight way is 3 m; by the suspected stretch about 3.9 m plus its penalty
@@ -996,7 +1067,96 @@ mod tests {
             (true, _) => cell_class::SOLID,
             _ => cell_class::FREE,
         });
-        assert!(route(&glass, 10.0).value(0.0, 0.0).is_infinite());
+        assert!(route(&glass, 10.0).beyond());
+    }
+
+    #[test]
+    fn a_goal_on_the_map_with_no_way_there_is_led_off_the_map_and_a_robot_walled_in_has_none() {
+        // a wall across the whole map 1 m ahead, the goal 2 m behind it, on the map
+        let wall = classes(|x, _| {
+            if (x - 1.0).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let route = build(&wall, grid(), (3.0, 0.5));
+        let v = route.value(0.0, 0.0);
+        assert!(route.beyond() && v.is_finite(), "{v}");
+        // towards the border beside it (the map is 10 m across): 5 m there, 5.4 m on
+        assert!((v - 10.4).abs() < 0.5, "{v}");
+        assert!(route.value(0.0, 1.0) < v, "{v}");
+        // the goal's side still has its own lengths
+        assert!((route.value(2.0, 0.5) - 1.0).abs() < 0.1);
+        // a wall with a door: the way on the map, not beyond
+        let door = classes(|x, y| {
+            if (x - 1.0).abs() < 0.05 && y.abs() > 0.6 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        assert!(!build(&door, grid(), (3.0, 0.5)).beyond());
+        // the robot walled in all round: no way at all
+        let cell = classes(|x, y| {
+            if ((x.abs() - 1.0).abs() < 0.05 && y.abs() < 1.05)
+                || ((y.abs() - 1.0).abs() < 0.05 && x.abs() < 1.05)
+            {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let walled = build(&cell, grid(), (3.0, 0.5));
+        assert!(walled.value(0.0, 0.0).is_infinite() && !walled.beyond());
+    }
+
+    #[test]
+    fn a_stretch_given_up_is_not_crossed_and_the_robot_beside_it_keeps_its_cells() {
+        // a pane's line across at x = 1.5 (walls beyond |y| = 4): two unseen stretches, one
+        // straight ahead (|y| < 0.6), one at y 2.4-3.6; the goal behind it
+        let line = classes(|x, y| match ((x - 1.5).abs() < 0.05, y) {
+            (true, y) if y.abs() < 0.6 || (2.4..3.6).contains(&y) => cell_class::SUSPECTED_GLASS,
+            (true, y) if y.abs() < 4.0 => cell_class::GLASS,
+            (true, _) => cell_class::SOLID,
+            _ => cell_class::FREE,
+        });
+        let build = |given_up: &[(f32, f32, f32)]| {
+            let mut r = Route::default();
+            r.set_given_up(given_up.iter().copied());
+            r.build(
+                &RouteParams {
+                    cell_m: 0.2,
+                    radius_m: 0.25,
+                    cost_weight: 0.0,
+                    swing_m: 0.0,
+                    swing_weight: 0.0,
+                    suspect_weight: 2.0,
+                    end_m: 0.0,
+                    settle_within_m: 0.0,
+                },
+                grid(),
+                &line,
+                &vec![0; line.len()],
+                (3.0, 0.0),
+            );
+            r
+        };
+        let near = build(&[]);
+        // straight on through the near stretch: about 3 m and its penalty
+        let v = near.value(0.0, 0.0);
+        assert!(v < 5.0, "{v}");
+        assert!(near.value(0.0, 1.0) > v, "the way is straight ahead");
+        // the near stretch given up: round by the far one, and from beside the given-up
+        // stretch (0.5 m from it) there is still a route
+        let far = build(&[(1.5, 0.0, 1.0)]);
+        let w = far.value(0.0, 0.0);
+        assert!(w > v + 2.0 && w.is_finite(), "{w} against {v}");
+        assert!(far.value(0.0, 1.0) < w, "the way is to the far stretch");
+        assert!(far.value(1.0, 0.0).is_finite());
+        // given up somewhere without suspected glass: nothing changes
+        let elsewhere = build(&[(-2.0, -2.0, 1.0)]);
+        assert_eq!(elsewhere.value(0.0, 0.0), v);
     }
 
     fn classes(f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
@@ -1116,8 +1276,9 @@ mod tests {
         // far walls out of reach: the route must use the door
         let wide = build(&door(0.3), grid(), (3.0, 0.0));
         assert!(wide.value(0.0, 0.0) < 3.2, "{}", wide.value(0.0, 0.0));
+        assert!(!wide.beyond());
         let narrow = build(&door(0.12), grid(), (3.0, 0.0));
-        assert!(narrow.value(0.0, 0.0).is_infinite());
+        assert!(narrow.beyond());
     }
 
     #[test]
