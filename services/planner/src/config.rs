@@ -155,6 +155,18 @@ pub struct PlannerConfig {
     /// Looks without the robot getting `0.5 m` nearer the goal along its route, after which it
     /// looks no more.
     pub look_max: u32,
+    /// A robot whose route has led it no nearer the goal (by `0.5 m`) for this long, the route
+    /// running into suspected glass close ahead, gives that stretch up: the suspected glass
+    /// within `give_up_radius_m` of where the route meets it is planned as a pane for
+    /// `give_up_s`, so the route turns to another way (or, with none, the robot stops
+    /// `blocked`). A stretch the body cannot get square in front of — the last of a partition
+    /// where it meets a wall — is otherwise where the robot stands until its time runs out, s
+    /// (0: never).
+    pub give_up_after_s: f64,
+    /// How far from where the route met it a given-up stretch reaches, m.
+    pub give_up_radius_m: f64,
+    /// How long a stretch stays given up, s.
+    pub give_up_s: f64,
     /// A foliage verdict older than this is ignored, s.
     pub foliage_max_age_s: f64,
     /// A map older than this is stale: zero velocity, s.
@@ -204,6 +216,9 @@ impl Default for PlannerConfig {
             look_s: 8.0,
             look_openings_only: true,
             look_max: 4,
+            give_up_after_s: 12.0,
+            give_up_radius_m: 1.0,
+            give_up_s: 60.0,
             tight_after_s: 3.0,
             tight_margin_m: 0.05,
             tight_s: 10.0,
@@ -296,6 +311,9 @@ impl PlannerConfig {
         r.check("planner.look_after_s", self.look_after_s, 0.0, 60.0);
         r.check("planner.look_s", self.look_s, 0.5, 60.0);
         r.check("planner.look_max", f64::from(self.look_max), 0.0, 100.0);
+        r.check("planner.give_up_after_s", self.give_up_after_s, 0.0, 600.0);
+        r.check("planner.give_up_radius_m", self.give_up_radius_m, 0.0, 5.0);
+        r.check("planner.give_up_s", self.give_up_s, 0.0, 3600.0);
         r.check("planner.tight_after_s", self.tight_after_s, 0.0, 600.0);
         r.check("planner.tight_margin_m", self.tight_margin_m, 0.0, 2.0);
         r.require(

@@ -156,6 +156,17 @@ impl PlannerParams {
         p
     }
 
+    /// How long the route may lead no nearer the goal before the suspected glass it runs into
+    /// is given up (`planner.give_up_after_s`; 0: never), ns.
+    pub fn give_up_after_ns(&self) -> u64 {
+        seconds_ns(self.planner.give_up_after_s)
+    }
+
+    /// How long a stretch stays given up (`planner.give_up_s`), ns.
+    pub fn give_up_ns(&self) -> u64 {
+        seconds_ns(self.planner.give_up_s)
+    }
+
     /// How long one look lasts at most (`planner.look_s`), ns.
     pub fn look_ns(&self) -> u64 {
         seconds_ns(self.planner.look_s)

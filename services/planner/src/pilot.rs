@@ -193,6 +193,8 @@ pub struct Pilot {
     look: Look,
     /// Squeezing through: see [`Tight`].
     tight: Tight,
+    /// Suspected glass given up: see [`GiveUp`].
+    given_up: GiveUp,
 }
 
 /// Below these speeds (m/s, rad/s) a command holds the robot (nearly) still: a long body that
@@ -260,6 +262,18 @@ impl Progress {
         self.since = Some(now);
     }
 }
+
+/// Suspected glass given up (`planner.give_up_after_s`): where the route ran into it while
+/// leading no nearer the goal for that long, in the odometry frame, each until a time.
+#[derive(Debug, Clone, Default)]
+struct GiveUp {
+    progress: Progress,
+    /// (x, y, until monotonic ns).
+    spots: Vec<(f64, f64, u64)>,
+}
+
+/// At most this many stretches are given up at once; the oldest goes first.
+const GIVE_UP_MAX: usize = 8;
 
 /// Squeezing through (`planner.tight_after_s`): the route has led the robot no nearer the goal
 /// for that long, so it plans with `planner.tight_margin_m` for `planner.tight_s`.
@@ -349,6 +363,7 @@ impl Pilot {
             back_out: BackOut::default(),
             look: Look::default(),
             tight: Tight::default(),
+            given_up: GiveUp::default(),
         }
     }
 
@@ -401,6 +416,7 @@ impl Pilot {
             self.back_out = BackOut::default();
             self.look = Look::default();
             self.tight = Tight::default();
+            self.given_up = GiveUp::default();
             return Ok(());
         }
         if !(g.x.is_finite() && g.y.is_finite() && g.tolerance_m.is_finite()) || g.tolerance_m < 0.0
@@ -413,6 +429,7 @@ impl Pilot {
         self.back_out = BackOut::default();
         self.look = Look::default();
         self.tight = Tight::default();
+        self.given_up = GiveUp::default();
         Ok(())
     }
 
@@ -520,6 +537,7 @@ impl Pilot {
                 self.foliage.obstacles.iter().copied(),
             );
         }
+        self.draw_given_up(&pose, now);
         let (v0, omega0) = (f64::from(odom.v), f64::from(odom.omega));
         if let Some(d) = self.backing_out(grid, (v0, omega0), (gx, gy), now, flags, header) {
             return d;
@@ -542,6 +560,7 @@ impl Pilot {
             gx.hypot(gy)
         };
         self.tight.see(route_m, now, after, lasts);
+        self.give_up(grid, &pose, route_m, now);
         if let Some(d) = self.held_still(&outcome, grid, (v0, omega0), (gx, gy), now, flags, header)
         {
             return d;
@@ -641,6 +660,58 @@ impl Pilot {
         b.tries += 1;
         b.until = Some(now.saturating_add(lasts));
         self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// Hands the planner the stretches given up and still held, in the robot frame; drops the
+    /// expired ones.
+    fn draw_given_up(&mut self, pose: &mimnav_shared::pose::Pose2, now: u64) {
+        let radius = self.params().planner.give_up_radius_m as f32;
+        let g = &mut self.given_up;
+        g.spots.retain(|s| now < s.2);
+        let discs = (g.spots.iter())
+            .filter_map(|&(x, y, _)| crate::guard::goal_in_robot_frame(pose, x, y))
+            .map(|(x, y)| (x as f32, y as f32, radius));
+        self.planner.set_given_up(discs);
+    }
+
+    /// After a forward plan: when the route has led no nearer the goal for
+    /// `planner.give_up_after_s` and runs into suspected glass close ahead, gives that stretch
+    /// up for `planner.give_up_s` (from the next map on).
+    fn give_up(
+        &mut self,
+        grid: GridSpec,
+        pose: &mimnav_shared::pose::Pose2,
+        route_m: f64,
+        now: u64,
+    ) {
+        let after = self.params().give_up_after_ns();
+        if after == 0 {
+            return;
+        }
+        let g = &mut self.given_up;
+        // the route's length flips when a stretch is crossable in one map and not the next: only
+        // a shorter route is progress
+        if g.progress.see(route_m, now, f64::INFINITY) || g.progress.stalled_ns(now) < after {
+            return;
+        }
+        let touch = self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m;
+        let route = self.planner.route();
+        let Some(at) =
+            crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)
+        else {
+            return;
+        };
+        use mimnav_shared::pose::Pose2Ext as _;
+        let (x, y) = pose.to_fixed(at.0, at.1);
+        let until = now.saturating_add(self.params().give_up_ns());
+        let g = &mut self.given_up;
+        if g.spots.len() >= GIVE_UP_MAX {
+            g.spots.remove(0);
+        }
+        g.spots.push((x, y, until));
+        // the way changes: its length from now on is the measure
+        g.progress = Progress::default();
+        g.progress.restart(now);
     }
 
     /// While a look is under way: the step towards its target, or `None` once it is reached,

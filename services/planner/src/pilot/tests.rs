@@ -747,3 +747,54 @@ fn a_robot_squeezes_through_a_gap_narrower_than_its_margin_but_not_between_glass
     (long.robot.length_m, long.robot.width_m) = (1.1, 0.5);
     assert_eq!(long.tight_after_ns(), 0);
 }
+
+/// Issue 22: Spot stood in the corner where a partition meets a wall, before the last stretch
+/// of the pane it could not get square in front of, until its time ran out. After
+/// `planner.give_up_after_s` without progress the stretch is given up and the route turns to
+/// another way; a new goal forgets it.
+#[test]
+fn a_stretch_the_robot_stands_before_is_given_up_for_another_way() {
+    // a pane's line across the map 2 m ahead: unseen straight ahead (|y| < 0.5) and at
+    // y 3.0-3.8, seen glass between, walls beyond; the goal 4 m ahead behind it
+    let line: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (x, y) = grid().center_of(i / grid().cells, i % grid().cells);
+            match ((x - 2.0).abs() < 0.06, y) {
+                (true, y) if y.abs() < 0.5 || (3.0..3.8).contains(&y) => {
+                    cell_class::SUSPECTED_GLASS
+                }
+                (true, y) if y.abs() < 4.0 => cell_class::GLASS,
+                (true, _) => cell_class::SOLID,
+                _ => cell_class::FREE,
+            }
+        })
+        .collect();
+    let params = PlannerParams::default();
+    let after_s = params.planner.give_up_after_s;
+    assert!(after_s > 0.0);
+    let t = 10 * S;
+    let mut p = driving(params, t);
+    p.goal(&goal(4.0, 0.0, t)).expect("a good goal");
+    // the robot does not move: no progress along the route
+    let at = |p: &mut Pilot, dt: u64| {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        p.on_map(&header(dt / (100 * MS)), line.iter().copied(), t + dt);
+        f64::from(p.planner().route().value(0.0, 0.0))
+    };
+    let straight = at(&mut p, 0);
+    assert!(straight.is_finite());
+    let mut dt = 0;
+    while dt + 500 * MS < (after_s * 1e9) as u64 {
+        dt += 500 * MS;
+        assert_eq!(at(&mut p, dt), straight, "not given up before {after_s} s");
+    }
+    // given up after the wait: the map after that plans round by the far stretch
+    at(&mut p, dt + 1000 * MS);
+    let round = at(&mut p, dt + 1100 * MS);
+    assert!(round > straight + 3.0, "{round} against {straight}");
+    assert!(!p.planner().route().beyond());
+    // a new goal: the stretch is tried again
+    p.goal(&goal(4.0, 0.0, t + dt + 1200 * MS))
+        .expect("a good goal");
+    assert_eq!(at(&mut p, dt + 1200 * MS), straight);
+}
