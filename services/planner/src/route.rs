@@ -1073,14 +1073,7 @@ mod tests {
     #[test]
     fn a_goal_on_the_map_with_no_way_there_is_led_off_the_map_and_a_robot_walled_in_has_none() {
         // a wall across the whole map 1 m ahead, the goal 2 m behind it, on the map
-        let wall = classes(|x, _| {
-            if (x - 1.0).abs() < 0.05 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        });
-        let route = build(&wall, grid(), (3.0, 0.5));
+        let route = build(&wall_across(1.0), grid(), (3.0, 0.5));
         let v = route.value(0.0, 0.0);
         assert!(route.beyond() && v.is_finite(), "{v}");
         // towards the border beside it (the map is 10 m across): 5 m there, 5.4 m on
@@ -1157,6 +1150,17 @@ mod tests {
         // given up somewhere without suspected glass: nothing changes
         let elsewhere = build(&[(-2.0, -2.0, 1.0)]);
         assert_eq!(elsewhere.value(0.0, 0.0), v);
+    }
+
+    /// A wall across the whole map at `at` m ahead.
+    fn wall_across(at: f32) -> Vec<u8> {
+        classes(|x, _| {
+            if (x - at).abs() < 0.05 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        })
     }
 
     fn classes(f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
@@ -1249,14 +1253,7 @@ mod tests {
         assert!((v - 12.0).abs() < 0.3, "{v}");
         // a wall closing the whole map's width: the way round leaves the map at its side,
         // where the unknown world beyond is assumed open
-        let closed = classes(|x, _| {
-            if (x - 2.0).abs() < 0.05 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        });
-        let route = build(&closed, grid(), (12.0, 0.0));
+        let route = build(&wall_across(2.0), grid(), (12.0, 0.0));
         let v = route.value(0.0, 0.0);
         assert!(v > 16.0, "by the side of the map: {v}");
         assert!((route.value(3.0, 0.0) - 9.0).abs() < 0.3);
