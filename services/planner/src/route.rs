@@ -995,26 +995,7 @@ mod tests {
     /// round is cheaper. Glass seen stays closed.
     #[test]
     fn suspected_glass_is_crossed_at_a_cost_and_seen_glass_stays_closed() {
-        let route = |c: &[u8], suspect_weight: f32| {
-            let mut r = Route::default();
-            r.build(
-                &RouteParams {
-                    cell_m: 0.2,
-                    radius_m: 0.25,
-                    cost_weight: 0.0,
-                    swing_m: 0.0,
-                    swing_weight: 0.0,
-                    suspect_weight,
-                    end_m: 0.0,
-                    settle_within_m: 0.0,
-                },
-                grid(),
-                c,
-                &vec![0; c.len()],
-                (3.0, 0.0),
-            );
-            r
-        };
+        let route = |c: &[u8], suspect_weight: f32| suspect_route(c, suspect_weight, &[]);
         // glass seen straight ahead (|y| < 1 m) across x = 1.5 m, walls closing the rest, and
         // the line drawn on as suspected for 1 m either side
         let wall = |gap: f32| {
@@ -1114,27 +1095,7 @@ mod tests {
             (true, _) => cell_class::SOLID,
             _ => cell_class::FREE,
         });
-        let build = |given_up: &[(f32, f32, f32)]| {
-            let mut r = Route::default();
-            r.set_given_up(given_up.iter().copied());
-            r.build(
-                &RouteParams {
-                    cell_m: 0.2,
-                    radius_m: 0.25,
-                    cost_weight: 0.0,
-                    swing_m: 0.0,
-                    swing_weight: 0.0,
-                    suspect_weight: 2.0,
-                    end_m: 0.0,
-                    settle_within_m: 0.0,
-                },
-                grid(),
-                &line,
-                &vec![0; line.len()],
-                (3.0, 0.0),
-            );
-            r
-        };
+        let build = |given_up: &[(f32, f32, f32)]| suspect_route(&line, 2.0, given_up);
         let near = build(&[]);
         // straight on through the near stretch: about 3 m and its penalty
         let v = near.value(0.0, 0.0);
@@ -1150,6 +1111,30 @@ mod tests {
         // given up somewhere without suspected glass: nothing changes
         let elsewhere = build(&[(-2.0, -2.0, 1.0)]);
         assert_eq!(elsewhere.value(0.0, 0.0), v);
+    }
+
+    /// The route to (3, 0) for a round body 0.25 m across on a coarse grid of 0.2 m, no costs:
+    /// suspected glass crossed at `suspect_weight`, the `given_up` discs closed.
+    fn suspect_route(c: &[u8], suspect_weight: f32, given_up: &[(f32, f32, f32)]) -> Route {
+        let mut r = Route::default();
+        r.set_given_up(given_up.iter().copied());
+        r.build(
+            &RouteParams {
+                cell_m: 0.2,
+                radius_m: 0.25,
+                cost_weight: 0.0,
+                swing_m: 0.0,
+                swing_weight: 0.0,
+                suspect_weight,
+                end_m: 0.0,
+                settle_within_m: 0.0,
+            },
+            grid(),
+            c,
+            &vec![0; c.len()],
+            (3.0, 0.0),
+        );
+        r
     }
 
     /// A wall across the whole map at `at` m ahead.
