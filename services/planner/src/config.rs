@@ -156,10 +156,10 @@ pub struct PlannerConfig {
     /// looks no more.
     pub look_max: u32,
     /// A robot whose route has led it no nearer the goal (by `0.5 m`) for this long, the route
-    /// running into suspected glass close ahead, gives that stretch up: the suspected glass
-    /// within `give_up_radius_m` of where the route meets it is planned as a pane for
-    /// `give_up_s`, so the route turns to another way (or, with none, the robot stops
-    /// `blocked`). A stretch the body cannot get square in front of — the last of a partition
+    /// running into suspected glass close ahead, gives that stretch up: the route does not
+    /// cross the suspected glass within `give_up_radius_m` of where it met it for `give_up_s`,
+    /// so it turns to another way (with none on the map, off the map: `no_route_stop_s`). A
+    /// stretch the body cannot get square in front of — the last of a partition
     /// where it meets a wall — is otherwise where the robot stands until its time runs out, s
     /// (0: never).
     pub give_up_after_s: f64,

@@ -662,6 +662,17 @@ impl Pilot {
         self.step_back(grid, v0_omega0, goal, flags, header)
     }
 
+    /// Where the last plan's route runs into suspected glass within [`LOOK_WITHIN_M`] ahead
+    /// (robot frame; [`crate::look::route_meets_suspected`]): what a look sweeps and what is
+    /// given up.
+    fn suspected_ahead(&self, grid: GridSpec) -> Option<(f64, f64)> {
+        // the band of extra cost the route charges beside suspected glass reaches the footprint
+        // and half a coarse cell from it, measured from coarse cells' centres
+        let touch = self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m;
+        let route = self.planner.route();
+        crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)
+    }
+
     /// Hands the planner the stretches given up and still held, in the robot frame; drops the
     /// expired ones.
     fn draw_given_up(&mut self, pose: &mimnav_shared::pose::Pose2, now: u64) {
@@ -694,11 +705,7 @@ impl Pilot {
         if g.progress.see(route_m, now, f64::INFINITY) || g.progress.stalled_ns(now) < after {
             return;
         }
-        let touch = self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m;
-        let route = self.planner.route();
-        let Some(at) =
-            crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)
-        else {
+        let Some(at) = self.suspected_ahead(grid) else {
             return;
         };
         use mimnav_shared::pose::Pose2Ext as _;
@@ -768,13 +775,7 @@ impl Pilot {
         if after == 0 {
             return None;
         }
-        let (max_tries, footprint, touch) = (
-            self.params().planner.look_max,
-            self.params().footprint_m(),
-            // the band of extra cost the route charges beside suspected glass reaches the
-            // footprint and half a coarse cell from it, measured from coarse cells' centres
-            self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m,
-        );
+        let (max_tries, footprint) = (self.params().planner.look_max, self.params().footprint_m());
         let route_m = f64::from(self.planner.route().value(0.0, 0.0));
         let l = &mut self.look;
         // a look keeps waiting however much longer the route grows
@@ -785,9 +786,7 @@ impl Pilot {
         if l.progress.stalled_ns(now) < after || l.tries >= max_tries {
             return None;
         }
-        let route = self.planner.route();
-        let at =
-            crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)?;
+        let at = self.suspected_ahead(grid)?;
         // a door seen in part, its seen gap still too narrow for the footprint
         let (only, wide) = (
             self.params().planner.look_openings_only,

@@ -340,9 +340,7 @@ impl Route {
         self.ends = ends;
         // the goal's own cell, or the border when the goal lies outside the map
         let cs = self.coarse;
-        let h = cs.half_extent_m();
-        let inside = goal.0.abs() < h && goal.1.abs() < h;
-        self.seed_goal(goal, false);
+        let inside = self.seed_goal(goal, false);
         let len = |dr: i32, dc: i32| f64::from(dr * dr + dc * dc).sqrt() as f32 * cs.cell_m;
         let lengths: [f32; 16] = std::array::from_fn(|j| len(MOVES[j].0, MOVES[j].1));
         // The open cells in a grid padded by two closed cells on every side, so a move needs no
@@ -401,28 +399,29 @@ impl Route {
     }
 
     /// Seeds the goal's cell and its neighbours (a goal on the map), and the border cells with
-    /// their straight-line distance to the goal (a goal beyond it, or `border`).
-    fn seed_goal(&mut self, goal: (f32, f32), border: bool) {
+    /// their straight-line distance to the goal (a goal beyond it, or `border`). Returns
+    /// whether the goal is on the map.
+    fn seed_goal(&mut self, goal: (f32, f32), border: bool) -> bool {
         let (cs, cells) = (self.coarse, self.coarse.cells);
         let h = cs.half_extent_m();
-        if goal.0.abs() < h && goal.1.abs() < h {
-            // the goal's cell and its neighbours, so values near the goal interpolate exactly
-            if let Some((r, c)) = cs.cell_of(goal.0, goal.1) {
-                for rr in r.saturating_sub(1)..(r + 2).min(cells) {
-                    for cc in c.saturating_sub(1)..(c + 2).min(cells) {
-                        let (x, y) = cs.center_of(rr, cc);
-                        self.seed(rr * cells + cc, (goal.0 - x).hypot(goal.1 - y));
-                    }
+        let inside = goal.0.abs() < h && goal.1.abs() < h;
+        // the goal's cell and its neighbours, so values near the goal interpolate exactly
+        if inside && let Some((r, c)) = cs.cell_of(goal.0, goal.1) {
+            for rr in r.saturating_sub(1)..(r + 2).min(cells) {
+                for cc in c.saturating_sub(1)..(c + 2).min(cells) {
+                    let (x, y) = cs.center_of(rr, cc);
+                    self.seed(rr * cells + cc, (goal.0 - x).hypot(goal.1 - y));
                 }
             }
-        } else {
+        }
+        if !inside || border {
             self.seed_border(goal);
         }
-        if border {
-            self.seed_border(goal);
-        }
+        inside
     }
 
+    /// Seeds every border cell with its straight-line distance to the goal: the world beyond
+    /// the map is assumed open.
     fn seed_border(&mut self, goal: (f32, f32)) {
         let (cs, cells) = (self.coarse, self.coarse.cells);
         for k in 0..cells {
