@@ -251,3 +251,45 @@ fn eval_over_a_generated_set_reports_every_family() {
     assert_eq!(n(hand, "worlds_impassable"), 1, "{hand}");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// Issue 22: a contact is reported with what was touched. A glass screen standing edge-on in
+/// the robot's way is never faced (every beam meets it at a grazing angle, so it never returns
+/// one): the robot drives into its end, and the evaluation says the pane was never faced.
+#[test]
+fn a_contact_with_a_pane_no_beam_could_show_is_reported_as_never_faced() {
+    let root = scratch("never-faced");
+    let world = root.join("screen_edge_on.toml");
+    std::fs::write(
+        &world,
+        "name = 'screen edge-on'\nstart = [0.0, 0.0, 0.0]\ngoal = [6.0, 0.0]\ntime_limit_s = 15.0\n\
+         [[glass]]\nfrom = [2.5, 0.0]\nto = [4.5, 0.0]\ntop = 2.0\n\
+         [[wall]]\nfrom = [9.0, -5.0]\nto = [9.0, 5.0]\n",
+    )
+    .expect("write world");
+    let out = ok(&mimnav(&[
+        "eval",
+        "--worlds",
+        root.to_str().expect("utf-8"),
+        "--method",
+        "adaptive",
+        "--seeds",
+        "1",
+        "--quiet",
+        "--json",
+    ]));
+    let episode: serde_json::Value = out
+        .lines()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .find(|v: &serde_json::Value| v["kind"] == "episode")
+        .expect("an episode line");
+    assert_eq!(episode["ending"], "contact", "{out}");
+    assert_eq!(episode["touched_kind"], "glass never faced", "{out}");
+    assert!(episode["touched_faced_s"].is_null(), "{out}");
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("| hand-made | adaptive | 1 | 0 | 0 | 1 | 0 | 0 |")),
+        "the contacts table counts it: {out}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -153,6 +153,36 @@ impl Ending {
     }
 }
 
+/// What a contact touched (issue 22), to tell the contacts a map built from the sensor's
+/// returns could have prevented from those it could not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Touched {
+    /// A glass pane the sensor had faced ([`mimnav_sim::truth::faces_pane`]) this many seconds
+    /// before the contact, at the first revolution that faced it.
+    Glass {
+        /// Seconds from the first revolution that faced the pane to the contact.
+        faced_s: f64,
+    },
+    /// A glass pane no revolution before the contact faced: no beam could have returned from it.
+    GlassNeverFaced,
+    /// A solid hidden in grass ([`mimnav_sim::world::Scene::hidden_in_grass`]).
+    HiddenInGrass,
+    /// Any other solid obstacle (walls, pillars, trunks, rocks in the open, bushes).
+    Solid,
+}
+
+impl Touched {
+    /// Name in JSON and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Touched::Glass { .. } => "glass",
+            Touched::GlassNeverFaced => "glass never faced",
+            Touched::HiddenInGrass => "hidden in grass",
+            Touched::Solid => "solid",
+        }
+    }
+}
+
 /// The record of one episode.
 #[derive(Debug, Clone)]
 pub struct Episode {
@@ -186,6 +216,8 @@ pub struct Episode {
     pub trajectory: Vec<(f64, f64)>,
     /// With a contact: the centre of the object touched (its bounding circle's), world frame.
     pub touched: Option<[f64; 2]>,
+    /// With a contact: what was touched.
+    pub touched_kind: Option<Touched>,
 }
 
 impl Method {
@@ -241,7 +273,11 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         map_ns: 0,
         trajectory: vec![(scene.start[0], scene.start[1])],
         touched: None,
+        touched_kind: None,
     };
+    // when each glass pane was first faced (issue 22: contacts with panes never faced)
+    let specular = config.sim.glass_specular_deg;
+    let mut first_faced: Vec<Option<f64>> = vec![None; scene.objects.len()];
     while let Some(turn) = run.next_revolution()? {
         episode.revolutions += 1;
         episode.map_ns += u128::from(turn.bin_ns + turn.map_ns + turn.classify_ns);
@@ -258,6 +294,12 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         }
         let p = run.sim().base().pose;
         episode.trajectory.push((p.x(), p.y()));
+        let sensor = run.sim().sensor_position();
+        for (faced, o) in first_faced.iter_mut().zip(&scene.objects) {
+            if faced.is_none() && mimnav_sim::truth::faces_pane(o, sensor, specular) {
+                *faced = Some(run.sim().elapsed_s());
+            }
+        }
     }
     let sim = run.sim();
     episode.path_m = sim.path_length_m();
@@ -266,6 +308,21 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         Outcome::GoalReached => Ending::Success,
         Outcome::Contact(i) => {
             episode.touched = scene.objects.get(i).map(|o| o.bound.0);
+            episode.touched_kind = scene.objects.get(i).map(|o| {
+                if o.class == cell_class::GLASS {
+                    // faced at the revolution that ended at the contact is faced too late
+                    match first_faced[i].filter(|&t| t < episode.elapsed_s - 1e-6) {
+                        Some(t) => Touched::Glass {
+                            faced_s: episode.elapsed_s - t,
+                        },
+                        None => Touched::GlassNeverFaced,
+                    }
+                } else if scene.hidden_in_grass().contains(&i) {
+                    Touched::HiddenInGrass
+                } else {
+                    Touched::Solid
+                }
+            });
             Ending::Contact
         }
         _ => {
@@ -514,6 +571,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 "f_glass": e.score.glass.f_score(),
                 "planner_us_per_rev": e.plan_ns as f64 / 1e3 / e.revolutions.max(1) as f64,
                 "touched": e.touched,
+                "touched_kind": e.touched_kind.map(Touched::name),
             });
             outln!("{line}")?;
         }

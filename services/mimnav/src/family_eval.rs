@@ -16,7 +16,7 @@ use mimnav_config::Config;
 use mimnav_sim::generate::Family;
 use mimnav_sim::world::{Scene, WorldFile};
 
-use crate::eval::{Ending, EvalArgs, Method, run_episode};
+use crate::eval::{Ending, EvalArgs, Method, Touched, run_episode};
 
 /// One world of the set and its verdict for the configured robot.
 struct World {
@@ -46,6 +46,13 @@ struct Row {
     impassable_episodes: usize,
     stopped_without_contact: usize,
     contacts_impassable: usize,
+    /// Contacts (passable and impassable worlds) by what was touched ([`Touched`]); a pane
+    /// faced in time was faced at least [`stop_s`] before the contact.
+    contacts_glass_faced: usize,
+    contacts_glass_faced_late: usize,
+    contacts_glass_never_faced: usize,
+    contacts_hidden_in_grass: usize,
+    contacts_solid: usize,
 }
 
 fn pct(n: usize, d: usize) -> String {
@@ -54,6 +61,13 @@ fn pct(n: usize, d: usize) -> String {
     } else {
         format!("{:.0} % ({n}/{d})", 100.0 * n as f64 / d as f64)
     }
+}
+
+/// The least time before a contact at which facing a pane still lets the robot stop short of
+/// it: braking from the top speed at the largest deceleration, and one revolution for the map.
+fn stop_s(config: &Config) -> f64 {
+    let r = &config.robot;
+    r.max_linear_mps / r.max_linear_accel + 60.0 / config.velodyne.rpm
 }
 
 /// The worlds the arguments name: `--worlds DIR` folders, `--world FILE`s and a generated set.
@@ -131,6 +145,7 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             .position(|x| x.name() == f)
             .unwrap_or(Family::ALL.len())
     });
+    let stop = stop_s(config);
     for (&(w, m, _), e) in jobs.iter().zip(&episodes) {
         let world = &worlds[w];
         let f = order.iter().position(|x| *x == world.family).unwrap_or(0);
@@ -141,6 +156,14 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             ..Row::default()
         });
         row.episodes += 1;
+        match e.touched_kind {
+            Some(Touched::Glass { faced_s }) if faced_s >= stop => row.contacts_glass_faced += 1,
+            Some(Touched::Glass { .. }) => row.contacts_glass_faced_late += 1,
+            Some(Touched::GlassNeverFaced) => row.contacts_glass_never_faced += 1,
+            Some(Touched::HiddenInGrass) => row.contacts_hidden_in_grass += 1,
+            Some(Touched::Solid) => row.contacts_solid += 1,
+            None => {}
+        }
         if world.passable {
             row.passable_episodes += 1;
             match e.ending {
@@ -191,6 +214,33 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             row.contacts_impassable,
         )?;
     }
+    if rows
+        .values()
+        .any(|r| r.contacts_passable + r.contacts_impassable > 0)
+    {
+        outln!(
+            "\nContacts by what was touched: a pane *never faced* had no beam within `sim.glass_specular_deg` of its normal at any revolution before the contact, so no map built from the returns could hold it; one faced *late* was first faced less than {stop:.2} s before it (braking from the top speed, and one revolution):\n"
+        )?;
+        outln!(
+            "| family | method | contacts | glass, faced in time | glass, faced late | glass never faced | hidden in grass | other solid |"
+        )?;
+        outln!("|---|---|---|---|---|---|---|---|")?;
+        for row in rows.values() {
+            let contacts = row.contacts_passable + row.contacts_impassable;
+            if contacts > 0 {
+                outln!(
+                    "| {} | {} | {contacts} | {} | {} | {} | {} | {} |",
+                    row.family,
+                    row.method,
+                    row.contacts_glass_faced,
+                    row.contacts_glass_faced_late,
+                    row.contacts_glass_never_faced,
+                    row.contacts_hidden_in_grass,
+                    row.contacts_solid,
+                )?;
+            }
+        }
+    }
     if args.json {
         for (&(w, m, seed), e) in jobs.iter().zip(&episodes) {
             let world = &worlds[w];
@@ -215,6 +265,11 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
                 "revolutions": e.revolutions,
                 "blocked": e.blocked,
                 "touched": e.touched,
+                "touched_kind": e.touched_kind.map(Touched::name),
+                "touched_faced_s": match e.touched_kind {
+                    Some(Touched::Glass { faced_s }) => Some(faced_s),
+                    _ => None,
+                },
             });
             outln!("{line}")?;
         }

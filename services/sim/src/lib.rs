@@ -283,6 +283,13 @@ impl Sim {
         (self.revolution_start_ns, self.revolution_start_pose)
     }
 
+    /// Where the lidar's optical centre is now: x, y on the ground plane (the mount's offset
+    /// applied to the base's pose) and its height, m, world frame.
+    pub fn sensor_position(&self) -> [f64; 3] {
+        let p = self.lidar.sensor_pose(&self.base.pose);
+        [p.x(), p.y(), self.settings.robot.sensor_height_m]
+    }
+
     /// Distance from the robot to the goal, m.
     pub fn distance_to_goal(&self) -> f64 {
         let p = &self.base.pose;

@@ -8,8 +8,10 @@ use mimnav_shared::topics::cell_class;
 
 use mimnav_shared::pose::{Pose2, Pose2Ext};
 
+use mimnav_velodyne::packet::VLP16_ELEVATION_DEG;
+
 use crate::geometry::footprint_distance;
-use crate::world::Scene;
+use crate::world::{Material, Object, Scene, Shape};
 
 fn rank(class: u8) -> u8 {
     match class {
@@ -62,4 +64,47 @@ pub fn truth_grid(scene: &Scene, pose: &Pose2, grid: GridSpec, out: &mut Vec<u8>
             }
         }
     }
+}
+
+/// Whether a VLP-16 whose optical centre stands at `sensor` (x, y, height; world frame, level)
+/// faces the glass pane `obj`: whether a beam of one of its lasers can meet the pane within
+/// `specular_deg` of the pane's normal, the simulator's own condition for a glass return
+/// (`sim.glass_specular_deg`, [`crate::physics`]). The beam checked is the one nearest the normal
+/// that meets the pane (off the normal only where the foot of the sensor's perpendicular lies
+/// beyond an end), at each laser's elevation. What lies between and the sensor's range are not
+/// considered: an upper bound on where the pane can show itself. False for anything but a
+/// glass sheet.
+///
+/// Issue 22: a pane no revolution has faced is not in any map built from the sensor's returns,
+/// so the evaluation tells a contact with one apart (`touched_kind`).
+pub fn faces_pane(obj: &Object, sensor: [f64; 3], specular_deg: f64) -> bool {
+    let (Shape::Sheet { a, b, z0, z1 }, Material::Glass) = (&obj.shape, &obj.material) else {
+        return false;
+    };
+    let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+    // NaN fails too
+    if !(len > 0.0 && specular_deg > 0.0) {
+        return false;
+    }
+    let (ux, uy) = ((b[0] - a[0]) / len, (b[1] - a[1]) / len);
+    let (sx, sy) = (sensor[0] - a[0], sensor[1] - a[1]);
+    // along the pane to the foot of the sensor's perpendicular, and across to the pane's line
+    let along = sx * ux + sy * uy;
+    let across = (sx * uy - sy * ux).abs();
+    if across.is_nan() || across <= 1e-6 {
+        return false;
+    }
+    // the level beam nearest the normal that meets the pane, off the normal by `azimuth`
+    let beyond = (-along).max(along - len).max(0.0);
+    let azimuth = (beyond / across).atan();
+    let cos_max = specular_deg.to_radians().cos();
+    VLP16_ELEVATION_DEG.iter().any(|&e| {
+        let e = f64::from(e).to_radians();
+        // the pane's normal is level: cos(incidence) = cos(elevation)·cos(azimuth)
+        if e.cos() * azimuth.cos() <= cos_max {
+            return false;
+        }
+        let z = sensor[2] + across / azimuth.cos() * e.tan();
+        (*z0..=*z1).contains(&z)
+    })
 }

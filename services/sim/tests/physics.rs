@@ -3,8 +3,8 @@
 
 use std::path::PathBuf;
 
-use mimnav_shared::topics::{Point, return_type};
-use mimnav_sim::world::WorldFile;
+use mimnav_shared::topics::{Point, cell_class, return_type};
+use mimnav_sim::world::{Shape, WorldFile};
 use mimnav_sim::{DEFAULT_EPOCH_NS, Sim, SimSettings};
 use mimnav_velodyne::packet::DataPacket;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig, Revolution};
@@ -124,6 +124,83 @@ fn glass_returns_only_near_normal_incidence_and_as_a_spike() {
         pairs.count() > 0,
         "dual pairs: last = wall behind, strongest = glass"
     );
+}
+
+/// A screen 1 m wide 3 m ahead (from y = 0.5 to 1.5), a pane hung from 1 m up beside it, and a
+/// wall behind both; the robot starts at (0, `y`).
+fn screen_world(y: f64) -> String {
+    format!(
+        "name = 'screen'\nstart = [0.0, {y}, 0.0]\ngoal = [1.0, {y}]\ntime_limit_s = 10.0\n\
+         [[glass]]\nfrom = [3.0, 0.5]\nto = [3.0, 1.5]\ntop = 2.0\n\
+         [[glass]]\nfrom = [3.0, -1.5]\nto = [3.0, -0.5]\nbottom = 1.0\ntop = 2.0\n\
+         [[wall]]\nfrom = [8.0, -20.0]\nto = [8.0, 20.0]\nheight = 4.0\nreflectivity = 50\n"
+    )
+}
+
+/// The glass sheet of `s`'s scene whose first end is at y = `y0`.
+fn glass_at(s: &Sim, y0: f64) -> &mimnav_sim::world::Object {
+    s.scene()
+        .objects
+        .iter()
+        .find(|o| matches!(o.shape, Shape::Sheet { a, .. } if a[1] == y0))
+        .expect("the pane")
+}
+
+fn screen(s: &Sim) -> &mimnav_sim::world::Object {
+    glass_at(s, 0.5)
+}
+
+fn hung(s: &Sim) -> &mimnav_sim::world::Object {
+    glass_at(s, -1.5)
+}
+
+/// Issue 22: the evaluation calls a pane *never faced* from where no beam could have shown it
+/// (`truth::faces_pane`); that must agree with the simulator's own returns, from in front of the
+/// screen, just past its end (where a beam a degree off the normal still meets it) and beyond,
+/// and for the pane above every flat beam.
+#[test]
+fn a_pane_is_faced_exactly_where_the_simulator_returns_its_spike() {
+    for y in [0.0, 0.3, 0.45, 1.0, 1.55, 1.7, -1.0] {
+        let mut s = sim(&screen_world(y), 3);
+        let sensor = s.sensor_position();
+        let specular = s.settings().sim.glass_specular_deg;
+        let faced: Vec<bool> = [screen(&s), hung(&s)]
+            .iter()
+            .map(|o| mimnav_sim::truth::faces_pane(o, sensor, specular))
+            .collect();
+        let rev = revolutions(&mut s, 2).pop().expect("a revolution");
+        // spikes off each pane's line, sensor frame (the robot faces +x from (0, y))
+        let spikes = |lo: f64, hi: f64| {
+            rev.points
+                .iter()
+                .filter(|p| {
+                    let (x, wy) = (f64::from(p.x), f64::from(p.y) + y);
+                    (x - 3.0).abs() < 0.1 && (lo..=hi).contains(&wy) && p.intensity > 100
+                })
+                .count()
+        };
+        let seen = [spikes(0.4, 1.6) > 0, spikes(-1.6, -0.4) > 0];
+        eprintln!("from y = {y}: faced {faced:?}, spikes seen {seen:?}");
+        assert_eq!(faced, seen, "from (0, {y})");
+    }
+    // and the cases are not all alike
+    let s = sim(&screen_world(0.0), 3);
+    let specular = s.settings().sim.glass_specular_deg;
+    let o = screen(&s);
+    assert!(!mimnav_sim::truth::faces_pane(o, [0.0, 0.0, 0.5], specular));
+    assert!(mimnav_sim::truth::faces_pane(o, [0.0, 1.0, 0.5], specular));
+    // nothing but glass is "faced"
+    let wall = s
+        .scene()
+        .objects
+        .iter()
+        .find(|o| o.class == cell_class::SOLID);
+    let wall = wall.expect("the wall");
+    assert!(!mimnav_sim::truth::faces_pane(
+        wall,
+        [5.0, 0.0, 0.5],
+        specular
+    ));
 }
 
 const GRASS_THEN_WALL: &str = "name = 'grass'\nstart = [0.0, 0.0, 0.0]\ngoal = [3.0, 0.0]\ntime_limit_s = 10.0\n\
