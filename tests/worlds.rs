@@ -288,7 +288,7 @@ fn a_contact_with_a_pane_no_beam_could_show_is_reported_as_never_faced() {
     assert!(episode["touched_faced_s"].is_null(), "{out}");
     assert!(
         out.lines()
-            .any(|l| l.starts_with("| hand-made | adaptive | 1 | 0 | 0 | 1 | 0 | 0 |")),
+            .any(|l| l.starts_with("| hand-made | adaptive | 1 | 0 | 0 | 0 | 1 | 0 | 0 |")),
         "the contacts table counts it: {out}"
     );
     let _ = std::fs::remove_dir_all(&root);

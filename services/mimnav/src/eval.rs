@@ -163,7 +163,15 @@ pub enum Touched {
         /// Seconds from the first revolution that faced the pane to the contact.
         faced_s: f64,
     },
-    /// A glass pane no revolution before the contact faced: no beam could have returned from it.
+    /// A glass pane no revolution before the contact faced, but another pane joined to it end to
+    /// end on its line ([`mimnav_sim::truth::pane_line`]) was, this many seconds before: the map
+    /// holds the touched one only by extending that one's line.
+    GlassLineFaced {
+        /// Seconds from the first revolution that faced a pane of the line to the contact.
+        faced_s: f64,
+    },
+    /// A glass pane neither it nor any pane of its line faced by a revolution before the contact:
+    /// no beam could have returned from it.
     GlassNeverFaced,
     /// A solid hidden in grass ([`mimnav_sim::world::Scene::hidden_in_grass`]).
     HiddenInGrass,
@@ -176,6 +184,7 @@ impl Touched {
     pub fn name(self) -> &'static str {
         match self {
             Touched::Glass { .. } => "glass",
+            Touched::GlassLineFaced { .. } => "glass, only its line faced",
             Touched::GlassNeverFaced => "glass never faced",
             Touched::HiddenInGrass => "hidden in grass",
             Touched::Solid => "solid",
@@ -311,11 +320,23 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
             episode.touched_kind = scene.objects.get(i).map(|o| {
                 if o.class == cell_class::GLASS {
                     // faced at the revolution that ended at the contact is faced too late
-                    match first_faced[i].filter(|&t| t < episode.elapsed_s - 1e-6) {
-                        Some(t) => Touched::Glass {
+                    let before = |k: usize| {
+                        first_faced
+                            .get(k)
+                            .copied()
+                            .flatten()
+                            .filter(|&t| t < episode.elapsed_s - 1e-6)
+                    };
+                    let line = mimnav_sim::truth::pane_line(scene, i);
+                    let line_faced = line.iter().filter_map(|&k| before(k)).reduce(f64::min);
+                    match (before(i), line_faced) {
+                        (Some(t), _) => Touched::Glass {
                             faced_s: episode.elapsed_s - t,
                         },
-                        None => Touched::GlassNeverFaced,
+                        (None, Some(t)) => Touched::GlassLineFaced {
+                            faced_s: episode.elapsed_s - t,
+                        },
+                        (None, None) => Touched::GlassNeverFaced,
                     }
                 } else if scene.hidden_in_grass().contains(&i) {
                     Touched::HiddenInGrass

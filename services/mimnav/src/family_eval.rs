@@ -50,6 +50,7 @@ struct Row {
     /// faced in time was faced at least [`stop_s`] before the contact.
     contacts_glass_faced: usize,
     contacts_glass_faced_late: usize,
+    contacts_glass_line_faced: usize,
     contacts_glass_never_faced: usize,
     contacts_hidden_in_grass: usize,
     contacts_solid: usize,
@@ -159,6 +160,7 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
         match e.touched_kind {
             Some(Touched::Glass { faced_s }) if faced_s >= stop => row.contacts_glass_faced += 1,
             Some(Touched::Glass { .. }) => row.contacts_glass_faced_late += 1,
+            Some(Touched::GlassLineFaced { .. }) => row.contacts_glass_line_faced += 1,
             Some(Touched::GlassNeverFaced) => row.contacts_glass_never_faced += 1,
             Some(Touched::HiddenInGrass) => row.contacts_hidden_in_grass += 1,
             Some(Touched::Solid) => row.contacts_solid += 1,
@@ -219,21 +221,22 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
         .any(|r| r.contacts_passable + r.contacts_impassable > 0)
     {
         outln!(
-            "\nContacts by what was touched: a pane *never faced* had no beam within `sim.glass_specular_deg` of its normal at any revolution before the contact, so no map built from the returns could hold it; one faced *late* was first faced less than {stop:.2} s before it (braking from the top speed, and one revolution):\n"
+            "\nContacts by what was touched: a pane *faced* had a beam within `sim.glass_specular_deg` of its normal at some revolution before the contact, *late* when first less than {stop:.2} s before it (braking from the top speed, and one revolution); *only its line faced*: not the pane, but one joined to it on its line; *never faced*: neither, so no map built from the returns could hold it:\n"
         )?;
         outln!(
-            "| family | method | contacts | glass, faced in time | glass, faced late | glass never faced | hidden in grass | other solid |"
+            "| family | method | contacts | glass, faced in time | glass, faced late | glass, only its line faced | glass never faced | hidden in grass | other solid |"
         )?;
-        outln!("|---|---|---|---|---|---|---|---|")?;
+        outln!("|---|---|---|---|---|---|---|---|---|")?;
         for row in rows.values() {
             let contacts = row.contacts_passable + row.contacts_impassable;
             if contacts > 0 {
                 outln!(
-                    "| {} | {} | {contacts} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {contacts} | {} | {} | {} | {} | {} | {} |",
                     row.family,
                     row.method,
                     row.contacts_glass_faced,
                     row.contacts_glass_faced_late,
+                    row.contacts_glass_line_faced,
                     row.contacts_glass_never_faced,
                     row.contacts_hidden_in_grass,
                     row.contacts_solid,
@@ -267,7 +270,9 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
                 "touched": e.touched,
                 "touched_kind": e.touched_kind.map(Touched::name),
                 "touched_faced_s": match e.touched_kind {
-                    Some(Touched::Glass { faced_s }) => Some(faced_s),
+                    Some(Touched::Glass { faced_s } | Touched::GlassLineFaced { faced_s }) => {
+                        Some(faced_s)
+                    }
                     _ => None,
                 },
             });

@@ -203,6 +203,45 @@ fn a_pane_is_faced_exactly_where_the_simulator_returns_its_spike() {
     ));
 }
 
+/// A shop front of three panes edge to edge on x = 3, a pane joined to its end at 45°, one on
+/// its line past a gap, and a wall at its other end: the front is one line of panes.
+#[test]
+fn panes_joined_end_to_end_on_one_line_are_one_pane_line() {
+    let s = sim(
+        "name = 'front'\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0]\ntime_limit_s = 10.0\n\
+         [[glass]]\nfrom = [3.0, -3.0]\nto = [3.0, -1.0]\n\
+         [[glass]]\nfrom = [3.0, 1.0]\nto = [3.0, 2.0]\n\
+         [[glass]]\nfrom = [3.0, -1.0]\nto = [3.0, 1.0]\n\
+         [[glass]]\nfrom = [3.0, 2.0]\nto = [4.0, 3.0]\n\
+         [[glass]]\nfrom = [3.0, 2.5]\nto = [3.0, 4.0]\n\
+         [[wall]]\nfrom = [3.0, -4.0]\nto = [3.0, -3.0]\n",
+        1,
+    );
+    let index = |y0: f64| {
+        let o = glass_at(&s, y0);
+        s.scene()
+            .objects
+            .iter()
+            .position(|p| std::ptr::eq(p, o))
+            .expect("the pane")
+    };
+    let mut line = mimnav_sim::truth::pane_line(s.scene(), index(-1.0));
+    line.sort_unstable();
+    let mut want = vec![index(-3.0), index(-1.0), index(1.0)];
+    want.sort_unstable();
+    assert_eq!(line, want);
+    assert_eq!(
+        mimnav_sim::truth::pane_line(s.scene(), index(2.5)),
+        vec![index(2.5)]
+    );
+    let wall = s
+        .scene()
+        .objects
+        .iter()
+        .position(|o| o.class == cell_class::SOLID);
+    assert!(mimnav_sim::truth::pane_line(s.scene(), wall.expect("the wall")).is_empty());
+}
+
 const GRASS_THEN_WALL: &str = "name = 'grass'\nstart = [0.0, 0.0, 0.0]\ngoal = [3.0, 0.0]\ntime_limit_s = 10.0\n\
     [[grass]]\ncenter = [3.0, 0.0]\nsize = [2.0, 8.0]\nheight = 1.0\ndensity = 5.0\nreflectivity = 20\n\
     [[wall]]\nfrom = [6.0, -20.0]\nto = [6.0, 20.0]\nheight = 4.0\nreflectivity = 50\n";
