@@ -113,34 +113,33 @@ pub fn faces_pane(obj: &Object, sensor: [f64; 3], specular_deg: f64) -> bool {
 /// directly or through others (a shop front or partition built of several panes), `i` included;
 /// empty when `i` is not a glass sheet. Within 2 cm and 1° counts as joined and on the line.
 pub fn pane_line(scene: &Scene, i: usize) -> Vec<usize> {
+    // a pane's two ends
+    type Segment = ([f64; 2], [f64; 2]);
     let sheet = |k: usize| match (scene.objects.get(k).map(|o| (&o.shape, &o.material)))? {
         (Shape::Sheet { a, b, .. }, Material::Glass) => Some((*a, *b)),
         _ => None,
     };
-    let Some(_) = sheet(i) else {
-        return Vec::new();
-    };
-    let joined = |p: ([f64; 2], [f64; 2]), q: ([f64; 2], [f64; 2])| {
+    let joined = |p: Segment, q: Segment| {
         let near = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).hypot(u[1] - v[1]) < 0.02;
         let touch = near(p.0, q.0) || near(p.0, q.1) || near(p.1, q.0) || near(p.1, q.1);
-        let dir = |s: ([f64; 2], [f64; 2])| (s.1[1] - s.0[1]).atan2(s.1[0] - s.0[0]);
+        let dir = |s: Segment| (s.1[1] - s.0[1]).atan2(s.1[0] - s.0[0]);
         // the angle between the lines, folded onto [0, 90°]
         let turn = (dir(p) - dir(q)).rem_euclid(std::f64::consts::PI);
         touch && turn.min(std::f64::consts::PI - turn) < 1f64.to_radians()
     };
-    let mut line = vec![i];
+    // the panes found so far with their ends; each is searched from in turn
+    let mut line: Vec<(usize, Segment)> = sheet(i).map(|p| (i, p)).into_iter().collect();
     let mut k = 0;
-    while k < line.len() {
-        let p = sheet(line[k]).expect("only sheets join the line");
+    while let Some(&(_, p)) = line.get(k) {
         for j in 0..scene.objects.len() {
-            if !line.contains(&j)
+            if !line.iter().any(|&(m, _)| m == j)
                 && let Some(q) = sheet(j)
                 && joined(p, q)
             {
-                line.push(j);
+                line.push((j, q));
             }
         }
         k += 1;
     }
-    line
+    line.into_iter().map(|(j, _)| j).collect()
 }
