@@ -64,6 +64,12 @@ fn run() -> anyhow::Result<()> {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(0);
+    // TRACE_AT=X,Y,R: each revolution, the classes of the cells within R m of the world point
+    // (X, Y) — what the map held of an object the robot met
+    let at: Option<[f64; 3]> = std::env::var("TRACE_AT").ok().and_then(|v| {
+        let f: Vec<f64> = v.split(',').filter_map(|s| s.trim().parse().ok()).collect();
+        (f.len() == 3).then(|| [f[0], f[1], f[2]])
+    });
     let config_path = config_path.map(PathBuf::from);
     let config =
         Config::resolve(config_path.as_deref(), &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -99,6 +105,9 @@ fn run() -> anyhow::Result<()> {
             pose.rotation.angle(),
             cmd
         );
+        if let Some([ax, ay, ar]) = at {
+            print_at(grid, run.classes(), pose.to_local(ax, ay), ar);
+        }
         if n % every == 0 {
             if near > 0 {
                 print_near(grid, run.classes(), run.pilot().planner().route(), near);
@@ -115,6 +124,39 @@ fn run() -> anyhow::Result<()> {
     }
     println!("outcome {:?}", run.sim().outcome());
     Ok(())
+}
+
+/// How many cells of each class lie within `r` m of `(x, y)` (the robot's frame).
+fn print_at(grid: mimnav_shared::grid::GridSpec, classes: &[u8], (x, y): (f64, f64), r: f64) {
+    use mimnav_shared::topics::cell_class;
+    let mut counts = [0usize; 7];
+    let names = ["free", "solid", "passable", "glass", "suspected", "unknown", "outside"];
+    let steps = (r / grid.cell_m as f64).ceil() as i32;
+    for i in -steps..=steps {
+        for j in -steps..=steps {
+            let (dx, dy) = (f64::from(i) * grid.cell_m as f64, f64::from(j) * grid.cell_m as f64);
+            if dx.hypot(dy) > r {
+                continue;
+            }
+            let k = match grid.cell_of((x + dx) as f32, (y + dy) as f32) {
+                None => 6,
+                Some((rr, cc)) => match classes[grid.index(rr, cc)] {
+                    cell_class::FREE => 0,
+                    cell_class::SOLID => 1,
+                    cell_class::PASSABLE => 2,
+                    cell_class::GLASS => 3,
+                    cell_class::SUSPECTED_GLASS => 4,
+                    _ => 5,
+                },
+            };
+            counts[k] += 1;
+        }
+    }
+    let text: Vec<String> = (0..7)
+        .filter(|&k| counts[k] > 0)
+        .map(|k| format!("{} {}", names[k], counts[k]))
+        .collect();
+    println!("  at ({x:.2},{y:.2}) r {r}: {}", text.join(", "));
 }
 
 /// The classes within `near` cells of the robot (the map's centre; x, forward, up), one
