@@ -75,8 +75,17 @@ pub struct MapperConfig {
     /// kept), s: an obstacle lower than the lowest beam's reach next to the robot is out of
     /// sight once the robot is beside it.
     pub surface_memory_s: f64,
+    /// A kept surface cell is remembered `surface_memory_s` after it was last found and half
+    /// that longer for each further revolution it was found in, up to this, s: a rock's face is
+    /// found revolution after revolution, a curtain's strands now and then.
+    pub surface_memory_longest_s: f64,
     /// Kept surface cells farther than this from the robot are forgotten, m.
     pub surface_memory_m: f64,
+    /// A surface cell stands for the face of an object the beams met: the cells behind it,
+    /// along the beam from the sensor, up to this far (or a glass cell), are solid too, m (0:
+    /// only the face). A rock hidden in grass shows a few cells of its near face; its body lies
+    /// behind them, under the grass.
+    pub surface_depth_m: f64,
     /// Tall cells (a return above `tall_m`, no beam through) found in two revolutions in a row
     /// are kept this long while the robot moves (0: not kept), s: close by, a bush behind
     /// grass returns too little light to tell from the grass, though its top stood out from
@@ -131,7 +140,9 @@ impl Default for MapperConfig {
             surface_neighbours: 8,
             surface_min_returns: 2,
             surface_memory_s: 3.0,
+            surface_memory_longest_s: 30.0,
             surface_memory_m: 3.0,
+            surface_depth_m: 0.3,
             tall_memory_s: 10.0,
             tall_memory_m: 5.0,
             ground_clearance_m: 0.08,
@@ -230,7 +241,14 @@ impl MapperConfig {
             10000.0,
         );
         r.check("mapper.surface_memory_s", self.surface_memory_s, 0.0, 600.0);
+        r.check(
+            "mapper.surface_memory_longest_s",
+            self.surface_memory_longest_s,
+            0.0,
+            600.0,
+        );
         r.check("mapper.surface_memory_m", self.surface_memory_m, 0.0, 100.0);
+        r.check("mapper.surface_depth_m", self.surface_depth_m, 0.0, 5.0);
         r.check("mapper.tall_memory_s", self.tall_memory_s, 0.0, 600.0);
         r.check("mapper.tall_memory_m", self.tall_memory_m, 0.0, 100.0);
         r.check(

@@ -37,8 +37,10 @@
 //! the blades' and whose cells the blades above it let beams through (a curtain lets them through
 //! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
 //! range all along the ring. Cells the cue finds in two revolutions in a row are kept in the
-//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`): a rock lower than the
-//! lowest beam reaches beside the robot is out of sight while the robot passes it.
+//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`), the longer the more
+//! revolutions found them (`surface_memory_longest_s`): a rock lower than the lowest beam reaches
+//! beside the robot is out of sight while the robot passes it. The beams meet a rock's near face
+//! only: the cells behind a surface cell along the beam are solid too (`surface_depth_m`).
 #![deny(missing_docs)]
 
 pub mod baseline;
@@ -88,6 +90,12 @@ impl MapperParams {
     /// How long kept surface cells are remembered (`mapper.surface_memory_s`), ns; 0: not kept.
     pub fn surface_memory_ns(&self) -> u64 {
         seconds_ns(self.mapper.surface_memory_s)
+    }
+
+    /// The longest a kept surface cell found again and again is remembered
+    /// (`mapper.surface_memory_longest_s`, at least `surface_memory_s`), ns.
+    pub fn surface_memory_longest_ns(&self) -> u64 {
+        seconds_ns(self.mapper.surface_memory_longest_s).max(self.surface_memory_ns())
     }
 
     /// How long kept tall cells are remembered (`mapper.tall_memory_s`), ns; 0: not kept.
@@ -1064,7 +1072,7 @@ impl Mapper {
                 grid,
                 &pose,
                 now_ns,
-                max_age_ns,
+                (max_age_ns, self.params.surface_memory_longest_ns()),
                 self.params.mapper.surface_memory_m,
                 |_| false,
             );
@@ -1102,7 +1110,7 @@ impl Mapper {
                 grid,
                 &pose,
                 now_ns,
-                max_age_ns,
+                (max_age_ns, max_age_ns),
                 self.params.mapper.tall_memory_m,
                 through,
             );
@@ -1144,6 +1152,52 @@ impl Mapper {
                 self.surface_cells.push(cell);
             }
         }
+        self.deepen_surfaces();
+    }
+
+    /// The cells behind each surface cell along the beam from the sensor, up to
+    /// `surface_depth_m` (or a glass cell), join it: the beams met the face of the object, and
+    /// nothing they returned shows where it ends (a rock under grass shows a few cells of its
+    /// near face). A cell there without returns reads free (within the reach of other beams
+    /// of its bearing, over the rock), which is no sign of the rock's end.
+    fn deepen_surfaces(&mut self) {
+        let depth = self.params.mapper.surface_depth_m as f32;
+        let found = self.surface_cells.len();
+        if depth <= 0.0 || found == 0 {
+            return;
+        }
+        let grid = self.params.grid;
+        let sensor = (
+            self.params.robot.mount.x_m as f32,
+            self.params.robot.mount.y_m as f32,
+        );
+        let step = 0.5 * grid.cell_m;
+        let steps = (depth / step).ceil() as usize;
+        for k in 0..found {
+            let i = self.surface_cells[k];
+            let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
+            let (dx, dy) = (x - sensor.0, y - sensor.1);
+            let d = dx.hypot(dy);
+            if d < 1e-3 {
+                continue;
+            }
+            let (ux, uy) = (dx / d, dy / d);
+            for s in 1..=steps {
+                let t = (s as f32 * step).min(depth);
+                let Some((r, c)) = grid.cell_of(x + ux * t, y + uy * t) else {
+                    break;
+                };
+                let j = grid.index(r, c);
+                if self.classes[j] == cell_class::GLASS {
+                    break;
+                }
+                if j != i {
+                    self.surface_cells.push(j);
+                }
+            }
+        }
+        self.surface_cells.sort_unstable();
+        self.surface_cells.dedup();
     }
 
     /// Counts the surface cue's window of every return along its ring whose window is whole:
@@ -1189,8 +1243,12 @@ impl Mapper {
 /// hundreds of cells every revolution.
 #[derive(Debug)]
 struct Kept {
-    /// Odometry-frame centres of the kept cells, and when each was last found.
-    entries: Vec<(f64, f64, u64)>,
+    /// The kept cells.
+    entries: Vec<KeptCell>,
+    /// A cell found in two revolutions is kept this long after it was last found, ns ...
+    max_age_ns: u64,
+    /// ... and half as long again for each further revolution it was found in, up to this, ns.
+    longest_ns: u64,
     /// Odometry-frame centres of the cells found in the last revolution.
     last: Vec<(f64, f64)>,
     /// The kept cells in the grid, this revolution.
@@ -1203,10 +1261,21 @@ struct Kept {
     flagged: Vec<usize>,
 }
 
+/// A kept cell: its odometry-frame centre, when it was last found and in how many revolutions.
+#[derive(Debug, Clone, Copy)]
+struct KeptCell {
+    x: f64,
+    y: f64,
+    found_ns: u64,
+    finds: u32,
+}
+
 impl Kept {
     fn new(cells: usize) -> Self {
         Kept {
             entries: Vec::new(),
+            max_age_ns: 0,
+            longest_ns: 0,
             last: Vec::new(),
             drawn: Vec::new(),
             slot: vec![NO_CELL; cells],
@@ -1220,15 +1289,22 @@ impl Kept {
         self.entries.len()
     }
 
+    /// How long after it was last found a cell found in `finds` revolutions is kept.
+    fn age_limit_ns(&self, finds: u32) -> u64 {
+        let grown = u64::from(finds.max(2)).saturating_mul(self.max_age_ns / 2);
+        grown.min(self.longest_ns).max(self.max_age_ns)
+    }
+
     /// Draws the entries seen from `pose` into `drawn` (one entry per cell: duplicates merge,
-    /// keeping the latest time) and, with `keep` = Some((now, max age, max distance)), forgets
-    /// entries older or farther than that, or in a cell `forget` names. Leaves `slot` set for
+    /// keeping the latest time) and, with `keep` = Some((now, max distance)), forgets entries
+    /// older than their [age limit](Self::age_limit_ns), farther than that, or in a cell
+    /// `forget` names. Leaves `slot` set for
     /// the drawn cells.
     fn place(
         &mut self,
         pose: &Pose2,
         grid: GridSpec,
-        keep: Option<(u64, u64, f64)>,
+        keep: Option<(u64, f64)>,
         forget: impl Fn(usize) -> bool,
     ) {
         self.drawn.clear();
@@ -1236,12 +1312,13 @@ impl Kept {
         let mut out = 0;
         for k in 0..self.entries.len() {
             let e = self.entries[k];
-            if let Some((now, age, dist)) = keep
-                && (now.saturating_sub(e.2) > age || (e.0 - pose.x()).hypot(e.1 - pose.y()) > dist)
+            if let Some((now, dist)) = keep
+                && (now.saturating_sub(e.found_ns) > self.age_limit_ns(e.finds)
+                    || (e.x - pose.x()).hypot(e.y - pose.y()) > dist)
             {
                 continue;
             }
-            let (rx, ry) = frame.to_robot(e.0, e.1);
+            let (rx, ry) = frame.to_robot(e.x, e.y);
             if let Some((r, c)) = grid.cell_of(rx as f32, ry as f32) {
                 let i = grid.index(r, c);
                 if keep.is_some() && forget(i) {
@@ -1250,7 +1327,8 @@ impl Kept {
                 let j = self.slot[i];
                 if j != NO_CELL {
                     let held = &mut self.entries[j as usize];
-                    held.2 = held.2.max(e.2);
+                    held.found_ns = held.found_ns.max(e.found_ns);
+                    held.finds = held.finds.max(e.finds);
                     continue;
                 }
                 self.slot[i] = out as u32;
@@ -1263,8 +1341,9 @@ impl Kept {
     }
 
     /// Keeps the `cells` found now (robot grid, seen from `pose`) that lie near a cell found in
-    /// the last revolution, forgets entries older than `max_age_ns`, farther than `max_m` or in
-    /// a cell `forget` names, and draws the memory.
+    /// the last revolution, forgets entries older than `ages` say (`max_age_ns` after the last
+    /// find, half that longer a further find, up to `longest_ns`), farther than `max_m` or in a
+    /// cell `forget` names, and draws the memory.
     #[allow(clippy::too_many_arguments)]
     fn remember(
         &mut self,
@@ -1272,11 +1351,12 @@ impl Kept {
         grid: GridSpec,
         pose: &Pose2,
         now_ns: u64,
-        max_age_ns: u64,
+        (max_age_ns, longest_ns): (u64, u64),
         max_m: f64,
         forget: impl Fn(usize) -> bool,
     ) {
-        self.place(pose, grid, Some((now_ns, max_age_ns, max_m)), forget);
+        (self.max_age_ns, self.longest_ns) = (max_age_ns, longest_ns);
+        self.place(pose, grid, Some((now_ns, max_m)), forget);
         let frame = Frame::of(pose);
         for &(ox, oy) in &self.last {
             let (rx, ry) = frame.to_robot(ox, oy);
@@ -1301,10 +1381,19 @@ impl Kept {
             match self.slot[i] {
                 NO_CELL => {
                     self.slot[i] = self.entries.len() as u32;
-                    self.entries.push((ox, oy, now_ns));
+                    self.entries.push(KeptCell {
+                        x: ox,
+                        y: oy,
+                        found_ns: now_ns,
+                        finds: 2,
+                    });
                     self.drawn.push(i);
                 }
-                j => self.entries[j as usize].2 = now_ns,
+                j => {
+                    let e = &mut self.entries[j as usize];
+                    e.found_ns = now_ns;
+                    e.finds = e.finds.saturating_add(1);
+                }
             }
         }
         for &i in &self.flagged {

@@ -472,6 +472,42 @@ fn a_rock_below_the_grass_tops_is_solid_by_its_surface_along_the_ring() {
     assert_eq!(class_at(&m, 3.0, 0.0), cell_class::SOLID);
 }
 
+/// A rock under grass shows the beams its near face; the cells behind the face, along the
+/// beams, up to `mapper.surface_depth_m`, are its body.
+#[test]
+fn the_cells_behind_a_surface_along_the_beams_are_solid_to_its_depth() {
+    let rock = rock_in_grass(|_| 1.0);
+    let mut m = mapper();
+    assert_eq!(
+        m.params().mapper.surface_depth_m,
+        0.3,
+        "the documented default"
+    );
+    m.update(&rock, OdomInput::Missing, 0);
+    for x in [1.6, 1.7, 1.75] {
+        assert_eq!(
+            class_at(&m, x, 0.0),
+            cell_class::SOLID,
+            "behind the face, x = {x}"
+        );
+    }
+    for x in [1.9, 2.2] {
+        assert_ne!(
+            class_at(&m, x, 0.0),
+            cell_class::SOLID,
+            "deeper than 0.3 m, x = {x}"
+        );
+    }
+    // in front of the face, and beside it, nothing is added
+    assert_ne!(class_at(&m, 1.35, 0.0), cell_class::SOLID, "in front");
+    assert_ne!(class_at(&m, 1.7, 0.4), cell_class::SOLID, "beside");
+    // the face alone with 0
+    let mut m = mapper_with(|m| m.surface_depth_m = 0.0);
+    m.update(&rock, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "the face");
+    assert_ne!(class_at(&m, 1.7, 0.0), cell_class::SOLID, "only the face");
+}
+
 #[test]
 fn a_surface_that_beams_pass_below_or_an_upward_ring_is_not_solid() {
     // a curtain: the beams over the face become beams under it (0.1 m above the ground)
@@ -546,6 +582,54 @@ fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry(
     m.update(&rock, fresh(0.0, 0.0), s / 10);
     m.update(&[], fresh(0.0, 0.0), s / 5);
     assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "memory off");
+}
+
+/// A rock's face is found revolution after revolution, a curtain's strands now and then: a
+/// cell found in more revolutions is kept longer (half `surface_memory_s` a further find, up to
+/// `surface_memory_longest_s`), as when the robot stands beside a rock it can no longer see.
+#[test]
+fn a_surface_found_again_and_again_is_kept_longer() {
+    let rock = rock_in_grass(|_| 1.0);
+    let s = 1_000_000_000u64;
+    let found = |revolutions: u64| {
+        let mut m = mapper();
+        for k in 0..revolutions {
+            m.update(&rock, fresh(0.0, 0.0), k * s / 10);
+        }
+        (m, revolutions * s / 10)
+    };
+    // ten finds: 10 × 1.5 s = 15 s after the last
+    let (mut m, t) = found(10);
+    m.update(&[], fresh(0.0, 0.0), t + 14 * s);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "kept 14 s");
+    m.update(&[], fresh(0.0, 0.0), t + 16 * s);
+    assert_ne!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::SOLID,
+        "forgotten after 15 s"
+    );
+    // forty finds: no longer than surface_memory_longest_s (30 s)
+    let (mut m, t) = found(40);
+    assert_eq!(
+        m.params().surface_memory_longest_ns(),
+        30 * s,
+        "the documented default"
+    );
+    m.update(&[], fresh(0.0, 0.0), t + 29 * s);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "kept 29 s");
+    m.update(&[], fresh(0.0, 0.0), t + 31 * s);
+    assert_ne!(
+        class_at(&m, 1.5, 0.0),
+        cell_class::SOLID,
+        "forgotten after 30 s"
+    );
+    // no longer than surface_memory_s when the longest is set below it
+    let mut m = mapper_with(|m| m.surface_memory_longest_s = 0.0);
+    for k in 0..10 {
+        m.update(&rock, fresh(0.0, 0.0), k * s / 10);
+    }
+    m.update(&[], fresh(0.0, 0.0), s + 4 * s);
+    assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "3 s only");
 }
 
 /// A bush's top above the grass seen from afar: faint last returns 1.1 m above the ground

@@ -130,11 +130,22 @@ fn run() -> anyhow::Result<()> {
 fn print_at(grid: mimnav_shared::grid::GridSpec, classes: &[u8], (x, y): (f64, f64), r: f64) {
     use mimnav_shared::topics::cell_class;
     let mut counts = [0usize; 7];
-    let names = ["free", "solid", "passable", "glass", "suspected", "unknown", "outside"];
+    let names = [
+        "free",
+        "solid",
+        "passable",
+        "glass",
+        "suspected",
+        "unknown",
+        "outside",
+    ];
     let steps = (r / grid.cell_m as f64).ceil() as i32;
     for i in -steps..=steps {
         for j in -steps..=steps {
-            let (dx, dy) = (f64::from(i) * grid.cell_m as f64, f64::from(j) * grid.cell_m as f64);
+            let (dx, dy) = (
+                f64::from(i) * grid.cell_m as f64,
+                f64::from(j) * grid.cell_m as f64,
+            );
             if dx.hypot(dy) > r {
                 continue;
             }
