@@ -37,10 +37,10 @@
 //! the blades' and whose cells the blades above it let beams through (a curtain lets them through
 //! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
 //! range all along the ring. Cells the cue finds in two revolutions in a row are kept in the
-//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`), the longer the more
-//! revolutions found them (`surface_memory_longest_s`): a rock lower than the lowest beam reaches
+//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`), optionally the longer the
+//! more revolutions found them (`surface_memory_longest_s`): a rock lower than the lowest beam reaches
 //! beside the robot is out of sight while the robot passes it. The beams meet a rock's near face
-//! only: the cells behind a surface cell along the beam are solid too (`surface_depth_m`).
+//! only: the cells behind a surface cell along the beam can be made solid too (`surface_depth_m`).
 #![deny(missing_docs)]
 
 pub mod baseline;

@@ -477,12 +477,12 @@ fn a_rock_below_the_grass_tops_is_solid_by_its_surface_along_the_ring() {
 #[test]
 fn the_cells_behind_a_surface_along_the_beams_are_solid_to_its_depth() {
     let rock = rock_in_grass(|_| 1.0);
-    let mut m = mapper();
     assert_eq!(
-        m.params().mapper.surface_depth_m,
-        0.3,
-        "the documented default"
+        mapper().params().mapper.surface_depth_m,
+        0.0,
+        "off by default"
     );
+    let mut m = mapper_with(|m| m.surface_depth_m = 0.3);
     m.update(&rock, OdomInput::Missing, 0);
     for x in [1.6, 1.7, 1.75] {
         assert_eq!(
@@ -591,8 +591,13 @@ fn a_surface_found_twice_is_kept_while_out_of_sight_and_moves_with_the_odometry(
 fn a_surface_found_again_and_again_is_kept_longer() {
     let rock = rock_in_grass(|_| 1.0);
     let s = 1_000_000_000u64;
+    assert_eq!(
+        mapper().params().surface_memory_longest_ns(),
+        3 * s,
+        "off by default: no longer than surface_memory_s"
+    );
     let found = |revolutions: u64| {
-        let mut m = mapper();
+        let mut m = mapper_with(|m| m.surface_memory_longest_s = 30.0);
         for k in 0..revolutions {
             m.update(&rock, fresh(0.0, 0.0), k * s / 10);
         }
@@ -610,11 +615,7 @@ fn a_surface_found_again_and_again_is_kept_longer() {
     );
     // forty finds: no longer than surface_memory_longest_s (30 s)
     let (mut m, t) = found(40);
-    assert_eq!(
-        m.params().surface_memory_longest_ns(),
-        30 * s,
-        "the documented default"
-    );
+    assert_eq!(m.params().surface_memory_longest_ns(), 30 * s, "as set");
     m.update(&[], fresh(0.0, 0.0), t + 29 * s);
     assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "kept 29 s");
     m.update(&[], fresh(0.0, 0.0), t + 31 * s);
