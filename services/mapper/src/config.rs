@@ -86,6 +86,9 @@ pub struct MapperConfig {
     /// only the face). A rock hidden in grass shows a few cells of its near face; its body lies
     /// behind them, under the grass.
     pub surface_depth_m: f64,
+    /// Only a surface cell whose surface returns all lie at most this high above the ground is
+    /// deepened (`surface_depth_m`): a rock hidden in grass is low, m.
+    pub surface_depth_top_m: f64,
     /// Tall cells (a return above `tall_m`, no beam through) found in two revolutions in a row
     /// are kept this long while the robot moves (0: not kept), s: close by, a bush behind
     /// grass returns too little light to tell from the grass, though its top stood out from
@@ -140,9 +143,10 @@ impl Default for MapperConfig {
             surface_neighbours: 8,
             surface_min_returns: 2,
             surface_memory_s: 3.0,
-            surface_memory_longest_s: 3.0,
+            surface_memory_longest_s: 30.0,
             surface_memory_m: 3.0,
-            surface_depth_m: 0.0,
+            surface_depth_m: 0.3,
+            surface_depth_top_m: 0.3,
             tall_memory_s: 10.0,
             tall_memory_m: 5.0,
             ground_clearance_m: 0.08,
@@ -249,6 +253,12 @@ impl MapperConfig {
         );
         r.check("mapper.surface_memory_m", self.surface_memory_m, 0.0, 100.0);
         r.check("mapper.surface_depth_m", self.surface_depth_m, 0.0, 5.0);
+        r.check(
+            "mapper.surface_depth_top_m",
+            self.surface_depth_top_m,
+            0.0,
+            10.0,
+        );
         r.check("mapper.tall_memory_s", self.tall_memory_s, 0.0, 600.0);
         r.check("mapper.tall_memory_m", self.tall_memory_m, 0.0, 100.0);
         r.check(

@@ -37,10 +37,11 @@
 //! the blades' and whose cells the blades above it let beams through (a curtain lets them through
 //! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
 //! range all along the ring. Cells the cue finds in two revolutions in a row are kept in the
-//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`), optionally the longer the
-//! more revolutions found them (`surface_memory_longest_s`): a rock lower than the lowest beam reaches
+//! odometry frame like glass (`surface_memory_s`, `surface_memory_m`), the longer the more
+//! revolutions found them (`surface_memory_longest_s`): a rock lower than the lowest beam reaches
 //! beside the robot is out of sight while the robot passes it. The beams meet a rock's near face
-//! only: the cells behind a surface cell along the beam can be made solid too (`surface_depth_m`).
+//! only: the cells behind a low surface cell along the beam are solid too (`surface_depth_m`,
+//! `surface_depth_top_m`).
 #![deny(missing_docs)]
 
 pub mod baseline;
@@ -254,6 +255,9 @@ pub struct Mapper {
     runs: Vec<(usize, usize)>,
     /// Cells the surface cue made solid, kept in the odometry frame like glass.
     surface_kept: Kept,
+    /// The cells behind the surface cells (`surface_depth_m`), kept `surface_memory_s` and no
+    /// longer.
+    body_kept: Kept,
     /// Cells the surface cue made solid in this revolution.
     surface_cells: Vec<usize>,
     /// Tall cells (solid by the height cue), kept in the odometry frame.
@@ -275,6 +279,8 @@ pub struct Mapper {
     /// (`surface_neighbours` within `surface_window`), as (cell, height): listed as soon as
     /// their window along the ring is whole.
     flat: Vec<(u32, f32)>,
+    /// Scratch: cells with a surface return above `surface_depth_top_m`.
+    flat_high: Vec<usize>,
     spikes: Vec<bool>,
     /// How the revolution being binned is de-skewed.
     deskew: Deskew,
@@ -379,6 +385,7 @@ impl Mapper {
             pane_rings: Vec::new(),
             runs: Vec::new(),
             surface_kept: Kept::new(n2),
+            body_kept: Kept::new(n2),
             surface_cells: Vec::new(),
             tall_kept: Kept::new(n2),
             tall_cells: Vec::new(),
@@ -388,6 +395,7 @@ impl Mapper {
             last_rings: vec![Vec::new(); 16],
             last_counted: vec![0; 16],
             flat: Vec::new(),
+            flat_high: Vec::new(),
             spikes: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
@@ -543,9 +551,13 @@ impl Mapper {
                 self.cost[i] = 255;
             }
         }
-        stats.surface_found = self.surface_cells.len() as u32;
         self.remember_surfaces(odom, now_ns);
-        stats.surface_memory = self.surface_kept.len() as u32;
+        if surface_cue {
+            // the body behind this revolution's faces
+            self.deepen_surfaces(odom, now_ns);
+        }
+        stats.surface_found = self.surface_cells.len() as u32;
+        stats.surface_memory = (self.surface_kept.len() + self.body_kept.len()) as u32;
         self.remember_tall(odom, now_ns);
         stats.tall_memory = self.tall_kept.len() as u32;
         for &i in &self.glass_cells {
@@ -1059,32 +1071,16 @@ impl Mapper {
     /// solid: a rock lower than the lowest beam reaches beside the robot is out of sight while
     /// the robot passes it. Like the glass memory, it does not move without fresh odometry.
     fn remember_surfaces(&mut self, odom: OdomInput, now_ns: u64) {
-        let max_age_ns = self.params.surface_memory_ns();
-        if max_age_ns == 0 {
-            return;
-        }
-        let grid = self.params.grid;
-        if let OdomInput::Fresh(Odom { pose, .. }) = odom {
-            // kept once found again: a rock is on its surface revolution after revolution,
-            // a curtain's swaying strands only now and then
-            self.surface_kept.remember(
-                &self.surface_cells,
-                grid,
-                &pose,
-                now_ns,
-                (max_age_ns, self.params.surface_memory_longest_ns()),
-                self.params.mapper.surface_memory_m,
-                |_| false,
-            );
-        } else if let Some(pose) = self.last_pose {
-            self.surface_kept.draw(&pose, grid);
-        }
-        for &i in &self.surface_kept.drawn {
-            if self.classes[i] != cell_class::GLASS {
-                self.classes[i] = cell_class::SOLID;
-                self.cost[i] = 255;
-            }
-        }
+        let longest_ns = self.params.surface_memory_longest_ns();
+        remember_solid(
+            &mut self.surface_kept,
+            &self.surface_cells,
+            (odom, self.last_pose),
+            now_ns,
+            &self.params,
+            longest_ns,
+            (&mut self.classes, &mut self.cost),
+        );
     }
 
     /// Keeps this revolution's tall cells (a return above `tall_m`, no beam through) in the
@@ -1152,18 +1148,23 @@ impl Mapper {
                 self.surface_cells.push(cell);
             }
         }
-        self.deepen_surfaces();
     }
 
     /// The cells behind each surface cell along the beam from the sensor, up to
     /// `surface_depth_m` (or a glass cell), join it: the beams met the face of the object, and
     /// nothing they returned shows where it ends (a rock under grass shows a few cells of its
     /// near face). A cell there without returns reads free (within the reach of other beams
-    /// of its bearing, over the rock), which is no sign of the rock's end.
-    fn deepen_surfaces(&mut self) {
+    /// of its bearing, over the rock), which is no sign of the rock's end. Only behind a face
+    /// whose surface returns all lie at most `surface_depth_top_m` above the ground (a rock
+    /// under the grass is low; a higher face is a bush's or a trunk's foot, and its beams
+    /// went on past their far side into the grass). The added cells follow the found ones in
+    /// `surface_cells`, each once, and are kept `surface_memory_s` and no longer (a face found
+    /// again and again is kept longer; its body, drawn along the beams of where the sensor
+    /// stood, is not).
+    fn deepen_surfaces(&mut self, odom: OdomInput, now_ns: u64) {
         let depth = self.params.mapper.surface_depth_m as f32;
         let found = self.surface_cells.len();
-        if depth <= 0.0 || found == 0 {
+        if depth <= 0.0 {
             return;
         }
         let grid = self.params.grid;
@@ -1173,8 +1174,21 @@ impl Mapper {
         );
         let step = 0.5 * grid.cell_m;
         let steps = (depth / step).ceil() as usize;
+        // the highest surface return of each face cell: a rock under the grass is low
+        let top_z =
+            (self.params.mapper.surface_depth_top_m - self.params.robot.sensor_height_m) as f32;
+        let mut high = std::mem::take(&mut self.flat_high);
+        for &(cell, z) in &self.flat {
+            if z > top_z {
+                high.push(cell as usize);
+            }
+        }
+        high.sort_unstable();
         for k in 0..found {
             let i = self.surface_cells[k];
+            if high.binary_search(&i).is_ok() {
+                continue;
+            }
             let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
             let (dx, dy) = (x - sensor.0, y - sensor.1);
             let d = dx.hypot(dy);
@@ -1196,8 +1210,39 @@ impl Mapper {
                 }
             }
         }
-        self.surface_cells.sort_unstable();
-        self.surface_cells.dedup();
+        high.clear();
+        self.flat_high = high;
+        // the added cells after the found ones, each once and none of the found
+        let (faces, added) = self.surface_cells.split_at_mut(found);
+        faces.sort_unstable();
+        added.sort_unstable();
+        let mut keep = found;
+        for k in found..self.surface_cells.len() {
+            let j = self.surface_cells[k];
+            if self.surface_cells[..found].binary_search(&j).is_err()
+                && (keep == found || self.surface_cells[keep - 1] != j)
+            {
+                self.surface_cells[keep] = j;
+                keep += 1;
+            }
+        }
+        self.surface_cells.truncate(keep);
+        let memory_ns = self.params.surface_memory_ns();
+        remember_solid(
+            &mut self.body_kept,
+            &self.surface_cells[found..],
+            (odom, self.last_pose),
+            now_ns,
+            &self.params,
+            memory_ns,
+            (&mut self.classes, &mut self.cost),
+        );
+        for &i in &self.surface_cells[found..] {
+            if self.classes[i] != cell_class::GLASS {
+                self.classes[i] = cell_class::SOLID;
+                self.cost[i] = 255;
+            }
+        }
     }
 
     /// Counts the surface cue's window of every return along its ring whose window is whole:
@@ -1233,6 +1278,46 @@ impl Mapper {
                 }
             }
             *counted = (*counted).max(end);
+        }
+    }
+}
+
+/// Keeps `cells` in `kept` (with fresh odometry; else draws it as it is from the last pose),
+/// each `surface_memory_s` after it was last found and half that longer for each further
+/// revolution it was found in, up to `longest_ns`; draws the kept cells solid (not over glass).
+fn remember_solid(
+    kept: &mut Kept,
+    cells: &[usize],
+    (odom, last_pose): (OdomInput, Option<Pose2>),
+    now_ns: u64,
+    params: &MapperParams,
+    longest_ns: u64,
+    (classes, cost): (&mut [u8], &mut [u8]),
+) {
+    let max_age_ns = params.surface_memory_ns();
+    if max_age_ns == 0 {
+        return;
+    }
+    let grid = params.grid;
+    if let OdomInput::Fresh(Odom { pose, .. }) = odom {
+        // kept once found again: a rock is on its surface revolution after revolution, a
+        // curtain's swaying strands only now and then
+        kept.remember(
+            cells,
+            grid,
+            &pose,
+            now_ns,
+            (max_age_ns, longest_ns),
+            params.mapper.surface_memory_m,
+            |_| false,
+        );
+    } else if let Some(pose) = last_pose {
+        kept.draw(&pose, grid);
+    }
+    for &i in &kept.drawn {
+        if classes[i] != cell_class::GLASS {
+            classes[i] = cell_class::SOLID;
+            cost[i] = 255;
         }
     }
 }

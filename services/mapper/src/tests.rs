@@ -479,8 +479,8 @@ fn the_cells_behind_a_surface_along_the_beams_are_solid_to_its_depth() {
     let rock = rock_in_grass(|_| 1.0);
     assert_eq!(
         mapper().params().mapper.surface_depth_m,
-        0.0,
-        "off by default"
+        0.3,
+        "the documented default"
     );
     let mut m = mapper_with(|m| m.surface_depth_m = 0.3);
     m.update(&rock, OdomInput::Missing, 0);
@@ -506,6 +506,30 @@ fn the_cells_behind_a_surface_along_the_beams_are_solid_to_its_depth() {
     m.update(&rock, OdomInput::Missing, 0);
     assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "the face");
     assert_ne!(class_at(&m, 1.7, 0.0), cell_class::SOLID, "only the face");
+    // a face whose returns reach higher than surface_depth_top_m above the ground (this one
+    // is 0.15 m up) is a bush's or a trunk's foot, not a rock under the grass: not deepened
+    let mut m = mapper_with(|m| m.surface_depth_top_m = 0.1);
+    m.update(&rock, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "the face, high");
+    assert_ne!(class_at(&m, 1.7, 0.0), cell_class::SOLID, "not deepened");
+    // out of sight, the face is kept longer the more it was found, the cells behind it only
+    // surface_memory_s (3 s): they lie along the beams of where the sensor stood, and kept
+    // as long they marked the grass behind bushes' and trunks' edges solid
+    let s = 1_000_000_000u64;
+    let mut m = mapper();
+    for k in 0..10 {
+        m.update(&rock, fresh(0.0, 0.0), k * s / 10);
+    }
+    assert_eq!(class_at(&m, 1.7, 0.0), cell_class::SOLID, "behind, seen");
+    m.update(&[], fresh(0.0, 0.0), 3 * s);
+    assert_eq!(class_at(&m, 1.7, 0.0), cell_class::SOLID, "behind, kept");
+    m.update(&[], fresh(0.0, 0.0), 5 * s);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "the face, kept");
+    assert_ne!(
+        class_at(&m, 1.7, 0.0),
+        cell_class::SOLID,
+        "behind it, forgotten"
+    );
 }
 
 #[test]
@@ -593,8 +617,8 @@ fn a_surface_found_again_and_again_is_kept_longer() {
     let s = 1_000_000_000u64;
     assert_eq!(
         mapper().params().surface_memory_longest_ns(),
-        3 * s,
-        "off by default: no longer than surface_memory_s"
+        30 * s,
+        "the documented default"
     );
     let found = |revolutions: u64| {
         let mut m = mapper_with(|m| m.surface_memory_longest_s = 30.0);
