@@ -267,6 +267,9 @@ pub struct Mapper {
     /// Cells the surface cue looks at: not bright, tall or opaque (cleared with the cells written,
     /// at the next revolution's start).
     surface_candidate: Vec<bool>,
+    /// Per candidate cell: the height of its highest surface return (sensor frame, m;
+    /// `-inf`: none), set by [`Mapper::mark_surfaces`].
+    surface_top: Vec<f32>,
     last_pose: Option<Pose2>,
     /// Per zero-layer laser, in firing order: each strongest return, its de-skewed position and
     /// where the sensor was when it fired (de-skewed the same way: the beam ran from there).
@@ -279,8 +282,6 @@ pub struct Mapper {
     /// (`surface_neighbours` within `surface_window`), as (cell, height): listed as soon as
     /// their window along the ring is whole.
     flat: Vec<(u32, f32)>,
-    /// Scratch: cells with a surface return above `surface_depth_top_m`.
-    flat_high: Vec<usize>,
     spikes: Vec<bool>,
     /// How the revolution being binned is de-skewed.
     deskew: Deskew,
@@ -390,12 +391,12 @@ impl Mapper {
             tall_kept: Kept::new(n2),
             tall_cells: Vec::new(),
             surface_candidate: vec![false; n2],
+            surface_top: vec![f32::NEG_INFINITY; n2],
             last_pose: None,
             rings: vec![Vec::new(); 16],
             last_rings: vec![Vec::new(); 16],
             last_counted: vec![0; 16],
             flat: Vec::new(),
-            flat_high: Vec::new(),
             spikes: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
@@ -601,6 +602,7 @@ impl Mapper {
             self.state[i] = UNTOUCHED;
             self.hit_class[i] = NO_HIT_CLASS;
             self.surface_candidate[i] = false;
+            self.surface_top[i] = f32::NEG_INFINITY;
         }
         self.touched.clear();
         self.redo.clear();
@@ -1137,6 +1139,8 @@ impl Mapper {
             if !self.surface_candidate[cell] {
                 continue;
             }
+            let top = &mut self.surface_top[cell];
+            *top = top.max(z);
             let e = &mut self.evidence[cell];
             // below every beam that passed through the cell: a curtain lets beams through at
             // every height, grass over a rock only above the rock
@@ -1174,19 +1178,12 @@ impl Mapper {
         );
         let step = 0.5 * grid.cell_m;
         let steps = (depth / step).ceil() as usize;
-        // the highest surface return of each face cell: a rock under the grass is low
+        // a rock under the grass is low
         let top_z =
             (self.params.mapper.surface_depth_top_m - self.params.robot.sensor_height_m) as f32;
-        let mut high = std::mem::take(&mut self.flat_high);
-        for &(cell, z) in &self.flat {
-            if z > top_z {
-                high.push(cell as usize);
-            }
-        }
-        high.sort_unstable();
         for k in 0..found {
             let i = self.surface_cells[k];
-            if high.binary_search(&i).is_ok() {
+            if self.surface_top[i] > top_z {
                 continue;
             }
             let (x, y) = grid.center_of(i / grid.cells, i % grid.cells);
@@ -1210,8 +1207,6 @@ impl Mapper {
                 }
             }
         }
-        high.clear();
-        self.flat_high = high;
         // the added cells after the found ones, each once and none of the found
         let (faces, added) = self.surface_cells.split_at_mut(found);
         faces.sort_unstable();
@@ -1330,10 +1325,6 @@ fn remember_solid(
 struct Kept {
     /// The kept cells.
     entries: Vec<KeptCell>,
-    /// A cell found in two revolutions is kept this long after it was last found, ns ...
-    max_age_ns: u64,
-    /// ... and half as long again for each further revolution it was found in, up to this, ns.
-    longest_ns: u64,
     /// Odometry-frame centres of the cells found in the last revolution.
     last: Vec<(f64, f64)>,
     /// The kept cells in the grid, this revolution.
@@ -1359,8 +1350,6 @@ impl Kept {
     fn new(cells: usize) -> Self {
         Kept {
             entries: Vec::new(),
-            max_age_ns: 0,
-            longest_ns: 0,
             last: Vec::new(),
             drawn: Vec::new(),
             slot: vec![NO_CELL; cells],
@@ -1374,22 +1363,23 @@ impl Kept {
         self.entries.len()
     }
 
-    /// How long after it was last found a cell found in `finds` revolutions is kept.
-    fn age_limit_ns(&self, finds: u32) -> u64 {
-        let grown = u64::from(finds.max(2)).saturating_mul(self.max_age_ns / 2);
-        grown.min(self.longest_ns).max(self.max_age_ns)
+    /// How long after it was last found a cell found in `finds` revolutions is kept: `max_age_ns`
+    /// after its second find, half that longer each further find, up to `longest_ns`.
+    fn age_limit_ns(finds: u32, (max_age_ns, longest_ns): (u64, u64)) -> u64 {
+        let grown = u64::from(finds.max(2)).saturating_mul(max_age_ns / 2);
+        grown.min(longest_ns).max(max_age_ns)
     }
 
     /// Draws the entries seen from `pose` into `drawn` (one entry per cell: duplicates merge,
-    /// keeping the latest time) and, with `keep` = Some((now, max distance)), forgets entries
-    /// older than their [age limit](Self::age_limit_ns), farther than that, or in a cell
+    /// keeping the latest time) and, with `keep` = Some((now, ages, max distance)), forgets
+    /// entries older than their [age limit](Self::age_limit_ns), farther than that, or in a cell
     /// `forget` names. Leaves `slot` set for
     /// the drawn cells.
     fn place(
         &mut self,
         pose: &Pose2,
         grid: GridSpec,
-        keep: Option<(u64, f64)>,
+        keep: Option<(u64, (u64, u64), f64)>,
         forget: impl Fn(usize) -> bool,
     ) {
         self.drawn.clear();
@@ -1397,8 +1387,8 @@ impl Kept {
         let mut out = 0;
         for k in 0..self.entries.len() {
             let e = self.entries[k];
-            if let Some((now, dist)) = keep
-                && (now.saturating_sub(e.found_ns) > self.age_limit_ns(e.finds)
+            if let Some((now, ages, dist)) = keep
+                && (now.saturating_sub(e.found_ns) > Self::age_limit_ns(e.finds, ages)
                     || (e.x - pose.x()).hypot(e.y - pose.y()) > dist)
             {
                 continue;
@@ -1426,8 +1416,8 @@ impl Kept {
     }
 
     /// Keeps the `cells` found now (robot grid, seen from `pose`) that lie near a cell found in
-    /// the last revolution, forgets entries older than `ages` say (`max_age_ns` after the last
-    /// find, half that longer a further find, up to `longest_ns`), farther than `max_m` or in a
+    /// the last revolution, forgets entries older than `ages` = (max age, longest) say
+    /// ([`Kept::age_limit_ns`]), farther than `max_m` or in a
     /// cell `forget` names, and draws the memory.
     #[allow(clippy::too_many_arguments)]
     fn remember(
@@ -1436,12 +1426,11 @@ impl Kept {
         grid: GridSpec,
         pose: &Pose2,
         now_ns: u64,
-        (max_age_ns, longest_ns): (u64, u64),
+        ages: (u64, u64),
         max_m: f64,
         forget: impl Fn(usize) -> bool,
     ) {
-        (self.max_age_ns, self.longest_ns) = (max_age_ns, longest_ns);
-        self.place(pose, grid, Some((now_ns, max_m)), forget);
+        self.place(pose, grid, Some((now_ns, ages, max_m)), forget);
         let frame = Frame::of(pose);
         for &(ox, oy) in &self.last {
             let (rx, ry) = frame.to_robot(ox, oy);
