@@ -626,6 +626,17 @@ impl Route {
         best
     }
 
+    /// What a metre of route entering the coarse cell at robot-frame point (x, y) costs
+    /// (1 on open ground; more for planning cost, lacking room to turn, a free end or suspected
+    /// glass), or `None` where the cell is closed or off the grid: for diagnostics.
+    pub fn step_at(&self, x: f32, y: f32) -> Option<f32> {
+        let (r, c) = self.coarse.cell_of(x, y)?;
+        let k = self.coarse.index(r, c);
+        (*self.open.get(k)?)
+            .then(|| self.step.get(k).copied())
+            .flatten()
+    }
+
     /// The coarse grid the route was computed on.
     pub fn coarse(&self) -> GridSpec {
         self.coarse
