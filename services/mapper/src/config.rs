@@ -89,6 +89,12 @@ pub struct MapperConfig {
     /// Only a surface cell whose surface returns all lie at most this high above the ground is
     /// deepened (`surface_depth_m`): a rock hidden in grass is low, m.
     pub surface_depth_top_m: f64,
+    /// A solid cell with no solid cell among its eight neighbours and at least this many
+    /// passable ones, two of them on opposite sides of it, is passable unless it was solid at
+    /// its place in the last revolution too (0: off): a string curtain or grass stops a beam here and
+    /// there, and one revolution's few returns in a cell of it can look opaque, bright or tall;
+    /// a trunk, a rock or a post seen at any range covers several cells.
+    pub lone_solid_passable: u32,
     /// Tall cells (a return above `tall_m`, no beam through) found in two revolutions in a row
     /// are kept this long while the robot moves (0: not kept), s: close by, a bush behind
     /// grass returns too little light to tell from the grass, though its top stood out from
@@ -147,6 +153,7 @@ impl Default for MapperConfig {
             surface_memory_m: 3.0,
             surface_depth_m: 0.3,
             surface_depth_top_m: 0.3,
+            lone_solid_passable: 3,
             tall_memory_s: 10.0,
             tall_memory_m: 5.0,
             ground_clearance_m: 0.08,
@@ -258,6 +265,12 @@ impl MapperConfig {
             self.surface_depth_top_m,
             0.0,
             10.0,
+        );
+        r.check(
+            "mapper.lone_solid_passable",
+            f64::from(self.lone_solid_passable),
+            0.0,
+            8.0,
         );
         r.check("mapper.tall_memory_s", self.tall_memory_s, 0.0, 600.0);
         r.check("mapper.tall_memory_m", self.tall_memory_m, 0.0, 100.0);

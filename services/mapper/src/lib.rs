@@ -199,6 +199,8 @@ pub struct UpdateStats {
     pub surface_memory: u32,
     /// Entries in the tall-cell memory.
     pub tall_memory: u32,
+    /// Lone solid cells among passable ones called passable (`mapper.lone_solid_passable`).
+    pub lone_passed: u32,
     /// Cells classified by their evidence after the last slice (the rest were settled as the
     /// slices arrived): every cell written when the revolution came whole.
     pub classified_at_end: u32,
@@ -260,6 +262,10 @@ pub struct Mapper {
     body_kept: Kept,
     /// Cells the surface cue made solid in this revolution.
     surface_cells: Vec<usize>,
+    /// Scratch: the lone solid cells of this revolution turned passable.
+    lone: Vec<usize>,
+    /// The last revolution's solid cells, for `mapper.lone_solid_passable`.
+    lone_last: LastSolids,
     /// Tall cells (solid by the height cue), kept in the odometry frame.
     tall_kept: Kept,
     /// Tall cells of this revolution.
@@ -388,6 +394,8 @@ impl Mapper {
             surface_kept: Kept::new(n2),
             body_kept: Kept::new(n2),
             surface_cells: Vec::new(),
+            lone: Vec::new(),
+            lone_last: LastSolids::default(),
             tall_kept: Kept::new(n2),
             tall_cells: Vec::new(),
             surface_candidate: vec![false; n2],
@@ -540,6 +548,7 @@ impl Mapper {
         let surface_min_returns = returns(self.params.mapper.surface_min_returns);
         let surface_cue = surface_min_returns > 0;
         self.classify();
+        self.pass_lone_solids(odom);
         let mut stats = self.stats;
         stats.glass_detected = self.glass_cells.len() as u32;
         stats.glass_memory = self.panes.evidence_len() as u32;
@@ -1003,6 +1012,98 @@ impl Mapper {
         self.tall_cells
             .retain(|&i| hit_class[i] != NO_HIT_CLASS && hit_class[i] & TALL_BIT != 0);
         self.surface_cells.clear();
+    }
+
+    /// A solid cell of this revolution with no solid neighbour and at least
+    /// `mapper.lone_solid_passable` passable ones, two of them on opposite sides of it, is
+    /// passable — unless the cells within one of
+    /// its place held a solid in the last revolution too (fresh odometry both times): a
+    /// curtain's or grass's strands stop one revolution's few beams in a cell now and then, a
+    /// post or a rock's face seen as a single cell is found at its place again.
+    fn pass_lone_solids(&mut self, odom: OdomInput) {
+        let need = self.params.mapper.lone_solid_passable;
+        if need == 0 {
+            return;
+        }
+        let grid = self.params.grid;
+        let n = grid.cells;
+        let passable_cost = self.params.mapper.passable_cell_cost();
+        let pose = match odom {
+            OdomInput::Fresh(Odom { pose, .. }) => Some(Frame::of(&pose)),
+            OdomInput::Stale | OdomInput::Missing => None,
+        };
+        let mut lone = std::mem::take(&mut self.lone);
+        lone.clear();
+        let last = &self.lone_last;
+        for &t in &self.touched {
+            let i = t as usize;
+            if self.classes[i] != cell_class::SOLID {
+                continue;
+            }
+            let (r, c) = (i / n, i % n);
+            if r == 0 || c == 0 || r + 1 >= n || c + 1 >= n {
+                continue;
+            }
+            let class = |dr: usize, dc: usize| self.classes[grid.index(r + dr - 1, c + dc - 1)];
+            let mut passable = 0;
+            let mut solid = false;
+            for dr in 0..3 {
+                for dc in 0..3 {
+                    match class(dr, dc) {
+                        _ if (dr, dc) == (1, 1) => {}
+                        cell_class::SOLID | cell_class::GLASS => solid = true,
+                        cell_class::PASSABLE => passable += 1,
+                        _ => {}
+                    }
+                }
+            }
+            // inside the strands (passable on two opposite sides), not at their end: a
+            // curtain's tip, solid now and then, is where a door's jamb may be
+            let flanked = [(0, 0), (0, 1), (0, 2), (1, 2)].iter().any(|&(dr, dc)| {
+                class(dr, dc) == cell_class::PASSABLE
+                    && class(2 - dr, 2 - dc) == cell_class::PASSABLE
+            });
+            if solid || passable < need || !flanked {
+                continue;
+            }
+            // found solid at its place in the last revolution: kept
+            let again = match (pose, last.frame) {
+                (Some(now), Some(then)) => {
+                    let (x, y) = grid.center_of(r, c);
+                    let (ox, oy) = now.to_odom(f64::from(x), f64::from(y));
+                    let (lx, ly) = then.to_robot(ox, oy);
+                    grid.cell_of(lx as f32, ly as f32)
+                        .is_some_and(|(lr, lc)| near3(n, grid.index(lr, lc), |j| last.solid[j]))
+                }
+                _ => false,
+            };
+            if !again {
+                lone.push(i);
+            }
+        }
+        // this revolution's solids, before any is passed, for the next revolution's test
+        let last = &mut self.lone_last;
+        for &j in &last.cells {
+            last.solid[j] = false;
+        }
+        last.cells.clear();
+        last.solid.resize(grid.len(), false);
+        last.frame = pose;
+        if pose.is_some() {
+            for &t in &self.touched {
+                let i = t as usize;
+                if self.classes[i] == cell_class::SOLID {
+                    last.solid[i] = true;
+                    last.cells.push(i);
+                }
+            }
+        }
+        for &i in &lone {
+            self.classes[i] = cell_class::PASSABLE;
+            self.cost[i] = passable_cost;
+        }
+        self.stats.lone_passed = lone.len() as u32;
+        self.lone = lone;
     }
 
     /// Settles `touched[self.settled..upto]`.
@@ -1497,6 +1598,17 @@ fn near3(n: usize, i: usize, f: impl Fn(usize) -> bool) -> bool {
     let (r, c) = (i / n, i % n);
     (r.saturating_sub(1)..=(r + 1).min(n - 1))
         .any(|rr| (c.saturating_sub(1)..=(c + 1).min(n - 1)).any(|cc| f(rr * n + cc)))
+}
+
+/// The solid cells of the last revolution (before lone ones were passed) and the frame they were
+/// found in (`None`: no fresh odometry then).
+#[derive(Debug, Default)]
+struct LastSolids {
+    /// Per cell: solid in the last revolution.
+    solid: Vec<bool>,
+    /// The cells set in `solid`.
+    cells: Vec<usize>,
+    frame: Option<Frame>,
 }
 
 /// One layer of one cell.

@@ -766,3 +766,76 @@ fn a_prefetch_out_of_bounds_or_of_a_type_of_no_size_is_a_no_op() {
     prefetch(&[(); 4], 3);
     prefetch::<u8>(&[], 0);
 }
+
+/// Dim last returns (a beam that went on) filling the cells of the square from (x0, y0), `n`
+/// cells a side: passable by equation 3. With `bright`, a bright single echo in each of those
+/// cells too: solid by its brightness.
+fn strands(x0: f32, y0: f32, n: usize, bright: &[(f32, f32)]) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (x0 + 0.05 * i as f32 + 0.02, y0 + 0.05 * j as f32 + 0.02);
+            pts.push(pt(x, y, -0.3, 10, 3, return_type::LAST));
+        }
+    }
+    for &(x, y) in bright {
+        pts.push(pt(x, y, -0.3, 60, 4, BOTH));
+    }
+    pts
+}
+
+#[test]
+fn a_lone_solid_among_passable_cells_is_passable_unless_found_there_again() {
+    let speck = (2.12, 0.12);
+    let band = strands(2.0, 0.0, 5, &[speck]);
+    // off: the bright cell is solid by its brightness
+    let mut m = mapper_with(|m| m.lone_solid_passable = 0);
+    m.update(&band, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, speck.0, speck.1), cell_class::SOLID);
+    assert_eq!(class_at(&m, 2.02, 0.02), cell_class::PASSABLE);
+    // on (the default): alone among passable cells, it is one of the strands
+    assert_eq!(MapperConfig::default().lone_solid_passable, 3);
+    let mut m = mapper();
+    let stats = m.update(&band, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, speck.0, speck.1), cell_class::PASSABLE);
+    assert_eq!(stats.lone_passed, 1);
+    let g = m.params().grid;
+    let (r, c) = g.cell_of(speck.0, speck.1).expect("inside");
+    assert_eq!(
+        m.cost()[g.index(r, c)],
+        m.params().mapper.passable_cell_cost()
+    );
+    // two solid cells side by side are not lone; nor is one with too few passable neighbours
+    let pair = strands(2.0, 0.0, 5, &[speck, (speck.0 + 0.05, speck.1)]);
+    m.update(&pair, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, speck.0, speck.1), cell_class::SOLID);
+    assert_eq!(class_at(&m, speck.0 + 0.05, speck.1), cell_class::SOLID);
+    // at the strands' end (passable on one side only): a curtain's tip, where a jamb may be
+    let tip = (2.12, 0.27);
+    m.update(&strands(2.0, 0.0, 5, &[tip]), OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, tip.0, tip.1), cell_class::SOLID, "the tip");
+    let post = vec![pt(3.02, 1.02, -0.3, 60, 4, BOTH)];
+    m.update(&post, OdomInput::Missing, 0);
+    assert_eq!(
+        class_at(&m, 3.02, 1.02),
+        cell_class::SOLID,
+        "a post on open floor"
+    );
+    // found at its place again with fresh odometry (the robot moved 0.5 m on): kept solid
+    let mut m = mapper_with(|m| m.lone_solid_passable = 3);
+    m.update(&band, fresh(0.0, 0.0), 0);
+    assert_eq!(class_at(&m, speck.0, speck.1), cell_class::PASSABLE);
+    let moved: Vec<Point> = strands(1.5, 0.0, 5, &[(speck.0 - 0.5, speck.1)]);
+    let stats = m.update(&moved, fresh(0.5, 0.0), 100_000_000);
+    assert_eq!(class_at(&m, speck.0 - 0.5, speck.1), cell_class::SOLID);
+    assert_eq!(stats.lone_passed, 0);
+    // elsewhere in the band the next revolution (two cells on): passable again
+    let mut m = mapper_with(|m| m.lone_solid_passable = 3);
+    m.update(&band, fresh(0.0, 0.0), 0);
+    let other = strands(2.0, 0.0, 5, &[(speck.0, speck.1 + 0.1)]);
+    m.update(&other, fresh(0.0, 0.0), 100_000_000);
+    assert_eq!(class_at(&m, speck.0, speck.1 + 0.1), cell_class::PASSABLE);
+    // without fresh odometry the last revolution's place cannot be told: passable
+    m.update(&other, OdomInput::Missing, 200_000_000);
+    assert_eq!(class_at(&m, speck.0, speck.1 + 0.1), cell_class::PASSABLE);
+}
