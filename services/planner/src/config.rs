@@ -114,9 +114,10 @@ pub struct PlannerConfig {
     /// nothing beyond it within 0.6 m — is drawn as suspected glass for planning, so the body keeps
     /// `margin_m` from it as from a wall's end: the door's jamb there may be a frameless pane,
     /// seen only square on, which a body crossing the curtain at a slant sweeps unseen
-    /// ([`crate::jamb`]). A round body only: Spot, marking the end alone, came back to cross
-    /// at a worse slant, its corner sweeping the line beyond the end (two contacts more on the
-    /// tune worlds).
+    /// ([`crate::jamb`]). Every body since stop 60 (a round one since stop 53): while the
+    /// mapper called a curtain's lone strands solid, Spot, marking the end as well, came back
+    /// to cross at a worse slant, its corner sweeping the line beyond the end (two contacts more
+    /// on the tune worlds); with `mapper.lone_solid_passable` it crosses (docs/evaluation.md).
     pub curtain_ends: bool,
     /// A robot held still by the dynamic window (every motion but standing still infeasible —
     /// a long body beside glass or a wall it cannot turn away from) for this long backs out, s

@@ -168,10 +168,11 @@ impl Planner {
         let reach = p.reach_m();
         let near = reach as f32 + 2.0 * grid.cell_m;
         // a curtain's free end is kept off as a pane's end is ([`jamb`]): the pane that may go on
-        // from it is seen only square on, and a round body crossing the curtain at a slant sweeps
-        // it (a long body's corner sweeps the pane's line beyond the end too: marking the end
-        // alone turned Spot to cross at a worse slant, two contacts more on the tune worlds)
-        if p.planner.curtain_ends && matches!(p.robot.body(), Body::Round(_)) {
+        // from it is seen only square on, and a body crossing the curtain at a slant sweeps it
+        // (a long body too since the mapper passes a curtain's lone solid cells, stop 60: before,
+        // those held Spot back from curtains, and marking the ends turned it to cross at a worse
+        // slant)
+        if p.planner.curtain_ends {
             let read = if own { &self.own[..] } else { classes };
             // ahead of the body's back: the rollouts drive forward
             let behind = (p.robot.body().enclosing_radius_m() + p.planner.margin_m) as f32;
@@ -554,6 +555,26 @@ mod tests {
         let on = PlannerParams::default();
         assert!(on.planner.curtain_ends);
         let mut planner = Planner::new(on);
+        assert!(!straight(planner.plan(
+            &classes,
+            grid,
+            0.3,
+            0.0,
+            (4.0, 0.0)
+        )));
+        // and so does a long body (Spot's 1.1 × 0.5 m)
+        let spot = |curtain_ends: bool| {
+            let mut p = PlannerParams::default();
+            p.robot.radius_m = 0.6;
+            p.robot.length_m = 1.1;
+            p.robot.width_m = 0.5;
+            p.robot.max_linear_mps = 0.6;
+            p.planner.curtain_ends = curtain_ends;
+            p
+        };
+        let mut planner = Planner::new(spot(false));
+        assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
+        let mut planner = Planner::new(spot(true));
         assert!(!straight(planner.plan(
             &classes,
             grid,
