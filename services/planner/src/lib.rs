@@ -548,40 +548,24 @@ mod tests {
                 classes[grid.index(r, c)] = cell_class::PASSABLE;
             }
         }
-        let mut off = PlannerParams::default();
-        off.planner.curtain_ends = false;
-        let mut planner = Planner::new(off);
-        assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
-        let on = PlannerParams::default();
-        assert!(on.planner.curtain_ends);
-        let mut planner = Planner::new(on);
-        assert!(!straight(planner.plan(
-            &classes,
-            grid,
-            0.3,
-            0.0,
-            (4.0, 0.0)
-        )));
-        // and so does a long body (Spot's 1.1 × 0.5 m)
-        let spot = |curtain_ends: bool| {
-            let mut p = PlannerParams::default();
+        assert!(PlannerParams::default().planner.curtain_ends);
+        // a round body, and a long one (Spot's 1.1 × 0.5 m)
+        let spot = |p: &mut PlannerParams| {
             p.robot.radius_m = 0.6;
             p.robot.length_m = 1.1;
             p.robot.width_m = 0.5;
             p.robot.max_linear_mps = 0.6;
-            p.planner.curtain_ends = curtain_ends;
-            p
         };
-        let mut planner = Planner::new(spot(false));
-        assert!(straight(planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0))));
-        let mut planner = Planner::new(spot(true));
-        assert!(!straight(planner.plan(
-            &classes,
-            grid,
-            0.3,
-            0.0,
-            (4.0, 0.0)
-        )));
+        for body in [|_: &mut PlannerParams| {}, spot] {
+            for on in [false, true] {
+                let mut p = PlannerParams::default();
+                body(&mut p);
+                p.planner.curtain_ends = on;
+                let mut planner = Planner::new(p);
+                let plan = planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0));
+                assert_eq!(straight(plan), !on, "curtain_ends {on}: {plan:?}");
+            }
+        }
     }
 
     #[test]
