@@ -7,6 +7,11 @@
 //! ```sh
 //! cargo run --release -p mimnav --example trace -- WORLD OUTDIR [EVERY] [--seed N] [--config FILE] [--set KEY=VALUE]…
 //! ```
+//!
+//! Environment: `TRACE_NEAR=K` prints the classes within K cells of the robot and the route's
+//! lengths around it every EVERY revolutions; with it, `TRACE_ROUTE=R` the route's lengths and
+//! the cost of a metre into each coarse cell on a 0.25 m lattice within R m; `TRACE_AT=X,Y,R`
+//! each revolution's class counts within R m of the world point (X, Y).
 use std::path::PathBuf;
 
 use mimnav_config::Config;
