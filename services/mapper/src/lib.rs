@@ -1016,10 +1016,10 @@ impl Mapper {
 
     /// A solid cell of this revolution with no solid neighbour and at least
     /// `mapper.lone_solid_passable` passable ones, two of them on opposite sides of it, is
-    /// passable — unless the cells within one of
-    /// its place held a solid in the last revolution too (fresh odometry both times): a
-    /// curtain's or grass's strands stop one revolution's few beams in a cell now and then, a
-    /// post or a rock's face seen as a single cell is found at its place again.
+    /// passable — unless the cells within one of its place held a solid in the last revolution
+    /// too (fresh odometry both times): a curtain's or grass's strands stop one revolution's few
+    /// beams in a cell now and then, a post or a rock's face seen as a single cell is found at
+    /// its place again.
     fn pass_lone_solids(&mut self, odom: OdomInput) {
         let need = self.params.mapper.lone_solid_passable;
         if need == 0 {
