@@ -42,6 +42,11 @@
 //! beside the robot is out of sight while the robot passes it. The beams meet a rock's near face
 //! only: the cells behind a low surface cell along the beam are solid too (`surface_depth_m`,
 //! `surface_depth_top_m`).
+//!
+//! The cues leave a few single solid cells in a curtain or in grass each revolution (a handful of
+//! returns that looked bright, opaque or tall); a solid cell alone among passable ones, passable
+//! on two opposite sides and not solid at its place the revolution before, is passable
+//! (`lone_solid_passable`).
 #![deny(missing_docs)]
 
 pub mod baseline;
