@@ -1338,12 +1338,10 @@ impl Mapper {
             memory_ns,
             (&mut self.classes, &mut self.cost),
         );
-        for &i in &self.surface_cells[found..] {
-            if self.classes[i] != cell_class::GLASS {
-                self.classes[i] = cell_class::SOLID;
-                self.cost[i] = 255;
-            }
-        }
+        draw_solid(
+            &self.surface_cells[found..],
+            (&mut self.classes, &mut self.cost),
+        );
     }
 
     /// Counts the surface cue's window of every return along its ring whose window is whole:
@@ -1415,7 +1413,12 @@ fn remember_solid(
     } else if let Some(pose) = last_pose {
         kept.draw(&pose, grid);
     }
-    for &i in &kept.drawn {
+    draw_solid(&kept.drawn, (classes, cost));
+}
+
+/// Draws `cells` solid, but not over glass.
+fn draw_solid(cells: &[usize], (classes, cost): (&mut [u8], &mut [u8])) {
+    for &i in cells {
         if classes[i] != cell_class::GLASS {
             classes[i] = cell_class::SOLID;
             cost[i] = 255;
