@@ -117,7 +117,8 @@ pub fn plan_capped(
 /// Backing out (see [`crate::pilot`]): the dynamic window with speeds from
 /// `-planner.recovery_mps` to just below 0, every trajectory checked against the map as forward
 /// ones are, and the one scored best that leaves the body clearest of obstacles at its end,
-/// goal progress counting less ([`BACK_OUT_CLEARANCE_WEIGHT`]). A long body parallel to glass or
+/// goal progress counting less ([`BACK_OUT_CLEARANCE_WEIGHT`]) and the ground given up counting
+/// for it ([`BACK_OUT_DISTANCE_WEIGHT`]: room to come in again). A long body parallel to glass or
 /// a wall it has come too close to cannot turn away (its corners swing into it) and may not go
 /// on (the way converges): standing still is then all the forward window allows.
 #[allow(clippy::too_many_arguments)]
@@ -155,6 +156,12 @@ pub fn guard_m(grid: GridSpec) -> f64 {
 /// Backing out, a metre of clearance gained for the body is worth this many metres of goal
 /// progress.
 pub const BACK_OUT_CLEARANCE_WEIGHT: f64 = 3.0;
+
+/// Backing out, a metre backed is worth this many metres of goal progress. Backing straight out
+/// of a passage gains the body no clearance at its discs, and scored on the route alone the
+/// slowest reverse won: Spot, wedged turned 8° in the mouth of a corridor 1.13 m wide, backed
+/// 3 cm a try and never came in again straighter (issue 22, stop 61).
+pub const BACK_OUT_DISTANCE_WEIGHT: f64 = 5.0;
 
 /// Which speeds the window samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -416,7 +423,11 @@ fn search(
                                 .map_or(0.0, |(r, c)| f64::from(clear.at(r, c)) - need)
                         })
                         .fold(f64::INFINITY, f64::min);
-                    pl.goal_weight * (to_go(x, y) - BACK_OUT_CLEARANCE_WEIGHT * slack)
+                    let backed = v.abs() * dt_s * steps as f64;
+                    pl.goal_weight
+                        * (to_go(x, y)
+                            - BACK_OUT_CLEARANCE_WEIGHT * slack
+                            - BACK_OUT_DISTANCE_WEIGHT * backed)
                         + pl.obstacle_weight * obstacle * dt_s
                 }
             };
@@ -749,6 +760,30 @@ mod tests {
             back_out(&spot(), grid, &cost, &clear, (0.0, 0.0), goal, None),
             DwaOutcome::Blocked
         );
+    }
+
+    /// Issue 22, stop 61: backing straight out of a narrow corridor gains the body no clearance
+    /// at its discs, and scored on the way to the goal alone the slowest reverse won (Spot
+    /// backed 3 cm a try, wedged in a corridor's mouth). It backs out at the recovery speed.
+    #[test]
+    fn a_long_body_backs_out_of_a_narrow_corridor_at_the_recovery_speed() {
+        // glass 0.45 m either side of the heading from 2 m behind to 4 m ahead, the goal ahead
+        // (by the straight line: a metre backed is a metre more to go)
+        let side = |x: f32, y: f32| (y.abs() - 0.45).abs() < 0.03 && x > -2.0 && x < 4.0;
+        let (grid, classes) = map(|x, y| match side(x, y) {
+            true => cell_class::GLASS,
+            false => cell_class::FREE,
+        });
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
+        let p = spot();
+        match back_out(&p, grid, &cost, &clear, (0.0, 0.0), (4.0, 0.0), None) {
+            DwaOutcome::Drive { v, omega, .. } => {
+                let back = p.planner.recovery_mps;
+                assert!(v <= -0.9 * back, "backs out at {v}, not {back}");
+                assert!(omega.abs() < 0.1, "straight back along it: {omega}");
+            }
+            o => panic!("{o:?}"),
+        }
     }
 
     #[test]
