@@ -216,36 +216,29 @@ fn print_near(
         route.value(0.0, 0.0),
         ring.join(" ")
     );
-    // TRACE_ROUTE=R: the route's lengths on a 0.25 m lattice within R m (x forward, rows down)
+    // TRACE_ROUTE=R: on a 0.25 m lattice within R m (forward up, left to the left), the
+    // route's lengths ("    -": none), then what a metre entering each cell costs ("   #": closed)
     if let Some(r) = std::env::var("TRACE_ROUTE")
         .ok()
         .and_then(|v| v.parse::<f32>().ok())
     {
         let k = (r / 0.25).round() as i32;
-        for i in (-k..=k).rev() {
-            let row: Vec<String> = (-k..=k)
-                .rev()
-                .map(|j| {
-                    let v = route.value(0.25 * i as f32, 0.25 * j as f32);
-                    if v.is_finite() {
-                        format!("{v:5.1}")
-                    } else {
-                        "    -".into()
-                    }
-                })
-                .collect();
-            println!("  {}", row.join(""));
-        }
-        // and what a metre entering each of those cells costs ("   #": closed)
-        for i in (-k..=k).rev() {
-            let row: Vec<String> = (-k..=k)
-                .rev()
-                .map(|j| match route.step_at(0.25 * i as f32, 0.25 * j as f32) {
-                    Some(s) => format!("{s:4.1}"),
-                    None => "   #".into(),
-                })
-                .collect();
-            println!("  {}", row.join(""));
-        }
+        let lattice = |cell: &dyn Fn(f32, f32) -> String| {
+            for i in (-k..=k).rev() {
+                let row: Vec<String> = (-k..=k)
+                    .rev()
+                    .map(|j| cell(0.25 * i as f32, 0.25 * j as f32))
+                    .collect();
+                println!("  {}", row.join(""));
+            }
+        };
+        lattice(&|x, y| match route.value(x, y) {
+            v if v.is_finite() => format!("{v:5.1}"),
+            _ => "    -".into(),
+        });
+        lattice(&|x, y| match route.step_at(x, y) {
+            Some(s) => format!("{s:4.1}"),
+            None => "   #".into(),
+        });
     }
 }

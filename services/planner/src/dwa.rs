@@ -449,7 +449,7 @@ fn search(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::clearance::tests::map;
     use mimnav_shared::topics::cell_class;
@@ -651,7 +651,7 @@ mod tests {
     }
 
     /// Spot's body as its profile gives it: 1.1 × 0.5 m (its enclosing circle: 0.6 m).
-    fn spot() -> PlannerParams {
+    pub(crate) fn spot() -> PlannerParams {
         let mut p = PlannerParams::default();
         p.robot.radius_m = 0.6;
         p.robot.length_m = 1.1;

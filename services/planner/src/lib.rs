@@ -550,16 +550,9 @@ mod tests {
         }
         assert!(PlannerParams::default().planner.curtain_ends);
         // a round body, and a long one (Spot's 1.1 × 0.5 m)
-        let spot = |p: &mut PlannerParams| {
-            p.robot.radius_m = 0.6;
-            p.robot.length_m = 1.1;
-            p.robot.width_m = 0.5;
-            p.robot.max_linear_mps = 0.6;
-        };
-        for body in [|_: &mut PlannerParams| {}, spot] {
+        for body in [PlannerParams::default(), crate::dwa::tests::spot()] {
             for on in [false, true] {
-                let mut p = PlannerParams::default();
-                body(&mut p);
+                let mut p = body.clone();
                 p.planner.curtain_ends = on;
                 let mut planner = Planner::new(p);
                 let plan = planner.plan(&classes, grid, 0.3, 0.0, (4.0, 0.0));
