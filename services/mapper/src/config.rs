@@ -126,6 +126,11 @@ pub struct MapperConfig {
     /// is a post between panes (a mullion): the extension goes on past it, m (0: every solid
     /// ends a pane).
     pub glass_mullion_m: f64,
+    /// A stretch of a pane's line from what was seen open (beams crossed it squarely, no spike)
+    /// to a solid or passable cell no longer than this is the rest of a passage beside a frame
+    /// and is not drawn; a longer one may hide a pane never faced and is drawn as suspected
+    /// glass, m (0: every such stretch drawn).
+    pub glass_passage_m: f64,
     /// Planning cost of a passable cell, 0–1 (free 0, solid and glass 1).
     pub passable_cost: f64,
     /// Odometry older than this is stale: the glass memory is not moved, m.
@@ -167,6 +172,7 @@ impl Default for MapperConfig {
             glass_normal_deg: 2.8,
             glass_extend_m: 3.0,
             glass_mullion_m: 0.2,
+            glass_passage_m: 1.8,
             passable_cost: 0.2,
             odom_max_age_s: 0.5,
             points_deadline_s: 0.5,
@@ -300,6 +306,7 @@ impl MapperConfig {
         r.check("mapper.glass_normal_deg", self.glass_normal_deg, 0.1, 30.0);
         r.check("mapper.glass_extend_m", self.glass_extend_m, 0.0, 20.0);
         r.check("mapper.glass_mullion_m", self.glass_mullion_m, 0.0, 2.0);
+        r.check("mapper.glass_passage_m", self.glass_passage_m, 0.0, 20.0);
         r.check("mapper.passable_cost", self.passable_cost, 0.0, 1.0);
         r.check("mapper.odom_max_age_s", self.odom_max_age_s, 0.01, 60.0);
         r.check(

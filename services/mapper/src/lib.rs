@@ -593,8 +593,11 @@ impl Mapper {
             let drawn = self.panes.draw(
                 &pose,
                 grid,
-                self.params.mapper.glass_extend_m,
-                self.params.mapper.glass_mullion_m,
+                pane::Reach {
+                    extend_m: self.params.mapper.glass_extend_m,
+                    mullion_m: self.params.mapper.glass_mullion_m,
+                    passage_m: self.params.mapper.glass_passage_m,
+                },
                 &mut self.classes,
                 &mut self.cost,
                 occluded,

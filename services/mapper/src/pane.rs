@@ -58,12 +58,22 @@ const BEYOND_M: f64 = 0.25;
 /// A pane is extended only once it has been seen in at least this many revolutions: one stray
 /// spike does not draw a line across the map.
 const MIN_REVOLUTIONS: u32 = 2;
-/// A stretch of a pane's line between what was seen open and a solid no longer than this is the
-/// rest of a passage beside a frame, not drawn; a longer one is drawn (suspected), m.
-const PASSAGE_M: f64 = 1.8;
 /// Lines nearer the sensor than this are not tested for openings (the beams cross them at
 /// angles the robot's own motion blurs), m.
 const MIN_TEST_M: f64 = 0.3;
+
+/// How far [`Panes::draw`] draws a pane's line on where it was not seen
+/// (`mapper.glass_extend_m`, `glass_mullion_m`, `glass_passage_m`), m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reach {
+    /// Up to this far from the pane's evidence (0: only the evidence).
+    pub extend_m: f64,
+    /// Past a solid stretch this short with the line going on beyond it (a post).
+    pub mullion_m: f64,
+    /// A stretch from what was seen open to a solid or passable cell up to this long is the rest
+    /// of a passage beside a frame: not drawn.
+    pub passage_m: f64,
+}
 
 /// One spike seen in one revolution, in the robot frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -498,15 +508,18 @@ impl Panes {
     /// as suspected glass ([`cell_class::SUSPECTED_GLASS`]) up to `extend_m` from its evidence,
     /// stopping at open evidence, at a solid or passable cell (past a solid no longer than
     /// `mullion_m` with the line going on beyond it: a post), at an unknown cell something nearer
-    /// hides (`occluded`: the inside of a pillar the pane meets) and at the grid's edge. Returns
-    /// what was drawn.
-    #[allow(clippy::too_many_arguments)]
+    /// hides (`occluded`: the inside of a pillar the pane meets) and at the grid's edge; a
+    /// stretch from open evidence to a solid or passable cell no longer than `passage_m` is not
+    /// drawn. Returns what was drawn.
     pub fn draw(
         &mut self,
         pose: &Pose2,
         grid: GridSpec,
-        extend_m: f64,
-        mullion_m: f64,
+        Reach {
+            extend_m,
+            mullion_m,
+            passage_m,
+        }: Reach,
         classes: &mut [u8],
         cost: &mut [u8],
         occluded: impl Fn(usize) -> bool,
@@ -575,7 +588,7 @@ impl Panes {
                 })
             };
             let limit = (extend_m / bin_m).round() as usize;
-            let passage_bins = (PASSAGE_M / bin_m).round() as usize;
+            let passage_bins = (passage_m / bin_m).round() as usize;
             // a solid stretch of the line no longer than `mullion_m`, with the line going on
             // beyond it, is a post between panes (a mullion, a frame's joint), not the pane's
             // end: the run goes on past it (a framed partition seen at a slant showed its
@@ -600,7 +613,7 @@ impl Panes {
             }
             // forward, then backward: an unseen bin is reached within `limit` bins of evidence,
             // glass or open, with nothing solid or passable between; a run from open evidence
-            // that ends at something solid or passable within `PASSAGE_M` is dropped — the rest
+            // that ends at something solid or passable within `passage_m` is dropped — the rest
             // of an opening between a frame and what was seen open (a passage beside a pillar),
             // not a pane that may go on past a door. A longer one is kept: a partition's far pane
             // running from the door to the room's wall
@@ -847,6 +860,71 @@ mod tests {
         assert!(open.windows(2).all(|w| w[1] - w[0] <= 0.16), "{open:?}");
         // without those revolutions nothing says the line is open there
         assert!(run(false).is_empty());
+    }
+
+    #[test]
+    fn a_stretch_from_an_opening_to_a_wall_is_drawn_only_when_longer_than_a_passage() {
+        // an office partition along y = −0.5: a pane seen from x = −1 to 0, a door seen open
+        // (squarely) from 0.05 to 0.25 only, and a wall on the line from 1.6 m. Between the door's
+        // seen part and the wall, 1.35 m that may be the rest of the door or a pane never faced
+        let cell_m = 0.05;
+        let grid = GridSpec {
+            cells: 160,
+            cell_m: cell_m as f32,
+        };
+        let mut panes = Panes::new(cell_m);
+        let mut pane = Pane {
+            glass: HashMap::new(),
+            open: HashMap::new(),
+            normal_sum: (0.0, 0.0),
+            line: ((0.0, -0.5), (1.0, 0.0)),
+            revolutions: MIN_REVOLUTIONS,
+            last_revolution_ns: 1,
+            replayed: true,
+        };
+        for k in 0..=20 {
+            let x = -1.0 + 0.05 * f64::from(k);
+            pane.glass.insert(key(x, -0.5, cell_m), (x, -0.5, 1));
+        }
+        for k in 1..=5 {
+            let x = 0.05 * f64::from(k);
+            pane.open.insert(key(x, -0.5, cell_m), (x, -0.5, 1));
+        }
+        panes.panes.push(pane);
+        let at = |x: f64| grid.cell_of(x as f32, -0.5).map(|(r, c)| grid.index(r, c));
+        let draw = |panes: &mut Panes, passage_m: f64| {
+            let mut classes = vec![cell_class::FREE; grid.len()];
+            for k in 0..=20 {
+                if let Some(i) = at(1.6 + 0.05 * f64::from(k)) {
+                    classes[i] = cell_class::SOLID;
+                }
+            }
+            let mut cost = vec![0u8; grid.len()];
+            let reach = Reach {
+                extend_m: 3.0,
+                mullion_m: 0.2,
+                passage_m,
+            };
+            panes.draw(&pose2(0.0, 0.0, 0.0), grid, reach, &mut classes, &mut cost, |_| false);
+            classes
+        };
+        let between = |classes: &[u8]| {
+            (8..=30)
+                .filter_map(|k| at(0.05 * f64::from(k)))
+                .filter(|&i| classes[i] == cell_class::SUSPECTED_GLASS)
+                .count()
+        };
+        // a passage of up to 1.8 m: the rest of the door, drawn open
+        let classes = draw(&mut panes, 1.8);
+        assert_eq!(between(&classes), 0);
+        // up to 1.0 m: longer, so it may hide a pane, drawn as suspected glass up to the wall
+        let classes = draw(&mut panes, 1.0);
+        assert!(between(&classes) >= 20, "{}", between(&classes));
+        // the door's seen part stays open, and the pane glass, either way
+        for x in [0.1, 0.2] {
+            assert_eq!(classes[at(x).expect("on the grid")], cell_class::FREE, "{x}");
+        }
+        assert_eq!(classes[at(-0.5).expect("on the grid")], cell_class::GLASS);
     }
 
     #[test]
