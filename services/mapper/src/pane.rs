@@ -905,7 +905,14 @@ mod tests {
                 mullion_m: 0.2,
                 passage_m,
             };
-            panes.draw(&pose2(0.0, 0.0, 0.0), grid, reach, &mut classes, &mut cost, |_| false);
+            panes.draw(
+                &pose2(0.0, 0.0, 0.0),
+                grid,
+                reach,
+                &mut classes,
+                &mut cost,
+                |_| false,
+            );
             classes
         };
         let between = |classes: &[u8]| {
@@ -922,7 +929,11 @@ mod tests {
         assert!(between(&classes) >= 20, "{}", between(&classes));
         // the door's seen part stays open, and the pane glass, either way
         for x in [0.1, 0.2] {
-            assert_eq!(classes[at(x).expect("on the grid")], cell_class::FREE, "{x}");
+            assert_eq!(
+                classes[at(x).expect("on the grid")],
+                cell_class::FREE,
+                "{x}"
+            );
         }
         assert_eq!(classes[at(-0.5).expect("on the grid")], cell_class::GLASS);
     }
