@@ -136,7 +136,8 @@ pub struct PlannerConfig {
     /// the suspected stretch's end, so its beams meet the whole stretch squarely (issue 22,
     /// item 3; [`crate::look`]), s (0: never).
     pub look_after_s: f64,
-    /// How long one look lasts at most, s.
+    /// How long one look lasts at most, s (it ends sooner at its target, or once the door it
+    /// looks at is seen whole: [`crate::look::Stretch::whole_m`]).
     pub look_s: f64,
     /// Look only at an opening seen in part: suspected glass on a line with a seen gap of free
     /// cells beside it (a door faced off its middle). Off: at any suspected glass the route

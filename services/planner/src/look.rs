@@ -15,7 +15,9 @@
 //! [`stretch_at`] fits the line through the suspected and glass cells there and
 //! [`look_target`] picks a point beside it, past the stretch's end, at the robot's own distance
 //! from the line: driving there, the robot faces the whole stretch squarely once. Then the map
-//! says glass or opening, and the route goes on or goes round.
+//! says glass or opening, and the route goes on or goes round. A look at a door ends as soon as
+//! the door is seen whole ([`Stretch::whole_m`]): the suspected stretch it was sent past runs
+//! on beyond the door's far edge, as the pane's line drawn on.
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
@@ -36,6 +38,9 @@ pub struct Stretch {
     /// The free width of the widest gap of free cells the line has next to the suspected ones,
     /// m (0: none; see [`Stretch::opening`]).
     pub seen_m: f64,
+    /// The free width of the widest such gap with seen glass at both ends, none suspected: a
+    /// door seen whole, edge to edge (0: none).
+    pub whole_m: f64,
 }
 
 impl Stretch {
@@ -189,25 +194,28 @@ pub fn stretch_at(
         from_m = from_m.min(s);
         to_m = to_m.max(s);
     }
+    let (seen_m, whole_m) = seen_gap(classes, grid, &pts, (mx, my), dir);
     Some(Stretch {
         point: at,
         dir,
         from_m,
         to_m,
-        seen_m: seen_gap(classes, grid, &pts, (mx, my), dir),
+        seen_m,
+        whole_m,
     })
 }
 
 /// The free width of the widest gap the line through `centre` along `dir` has between two of
 /// its glass or suspected cells `pts` (at least one of them suspected), at least two cells long,
-/// whose cells on the line are all free: seen open, not unknown and not a frame (0: none).
+/// whose cells on the line are all free: seen open, not unknown and not a frame (0: none); and
+/// of the widest such gap between two glass cells, neither of them suspected.
 fn seen_gap(
     classes: &[u8],
     grid: GridSpec,
     pts: &[(f64, f64, bool)],
     centre: (f64, f64),
     dir: (f64, f64),
-) -> f64 {
+) -> (f64, f64) {
     let cell = f64::from(grid.cell_m);
     // the cells on the line (within a cell and a half of it), by their place along it
     let mut on: Vec<(f64, bool)> = pts
@@ -220,9 +228,9 @@ fn seen_gap(
         .collect();
     on.sort_by(|a, b| a.0.total_cmp(&b.0));
     let free = on.windows(2).filter(|w| {
-        let ((a, a_suspected), (b, b_suspected)) = (w[0], w[1]);
+        let ((a, _), (b, _)) = (w[0], w[1]);
         // a diagonal line's neighbouring cells lie up to √2 cells apart along it
-        if b - a < 2.5 * cell || !(a_suspected || b_suspected) {
+        if b - a < 2.5 * cell {
             return false;
         }
         // the gap's inside, a cell clear of the cells at its ends
@@ -236,7 +244,14 @@ fn seen_gap(
         })
     });
     // the free width: between the cells' edges, not their centres
-    free.map(|w| w[1].0 - w[0].0 - cell).fold(0.0, f64::max)
+    free.fold((0.0, 0.0), |(seen, whole), w| {
+        let width = w[1].0 - w[0].0 - cell;
+        if w[0].1 || w[1].1 {
+            (seen.max(width), whole)
+        } else {
+            (seen, whole.max(width))
+        }
+    })
 }
 
 /// The map cell nearest (x, y), for a window that reaches past the map's edge.
@@ -414,7 +429,11 @@ mod tests {
                 *c = cell_class::GLASS;
             }
         }
-        assert!(!stretch_at(&glass, g, at, 1.5).expect("a line").opening());
+        let whole = stretch_at(&glass, g, at, 1.5).expect("a line");
+        assert!(!whole.opening(), "{whole:?}");
+        // ... seen whole, edge to edge, which a door seen in part is not
+        assert!((whole.whole_m - 0.4).abs() < 0.01, "{whole:?}");
+        assert_eq!(door.whole_m, 0.0, "{door:?}");
     }
 
     #[test]

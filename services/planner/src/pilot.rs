@@ -331,6 +331,9 @@ struct Look {
     /// The look under way: its target in the odometry frame, and when it ends at the latest.
     target: Option<(f64, f64)>,
     until: u64,
+    /// Where the route met the stretch looked at (odometry frame), and the seen gap that ends
+    /// the look: the footprint's width, as the look began only while the gap was narrower.
+    at: Option<((f64, f64), f64)>,
     /// Looks since the route last fell by [`PROGRESS_M`].
     tries: u32,
 }
@@ -736,8 +739,16 @@ impl Pilot {
     ) -> Option<Decision> {
         let target = self.look.target?;
         let local = crate::guard::goal_in_robot_frame(pose, target.0, target.1);
+        // the door has been seen whole, edge to edge, and wide enough: what the look went to see
+        // (the route now goes through it); the suspected stretch beyond it, which the look's
+        // target lies past, is the pane's line drawn on past the door's far edge
+        let seen = self.look.at.is_some_and(|((ax, ay), wide)| {
+            crate::guard::goal_in_robot_frame(pose, ax, ay)
+                .and_then(|at| crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M))
+                .is_some_and(|s| s.whole_m >= wide)
+        });
         let Some((tx, ty)) =
-            local.filter(|t| now < self.look.until && t.0.hypot(t.1) > LOOK_ARRIVED_M)
+            local.filter(|t| !seen && now < self.look.until && t.0.hypot(t.1) > LOOK_ARRIVED_M)
         else {
             self.look.target = None;
             return None;
@@ -818,6 +829,7 @@ impl Pilot {
         );
         use mimnav_shared::pose::Pose2Ext as _;
         l.target = Some(pose.to_fixed(tx, ty));
+        l.at = Some((pose.to_fixed(at.0, at.1), wide));
         l.until = now.saturating_add(look_ns);
         l.tries += 1;
         l.progress.restart(now);

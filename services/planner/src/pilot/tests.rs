@@ -622,6 +622,39 @@ fn a_robot_that_stands_before_suspected_glass_goes_to_look_at_it() {
     assert!(look.omega.abs() > 0.05, "{look:?}");
     let still = at(after + lasts - 100 * MS);
     assert_ne!(still.flags & command_flags::LOOKING, 0, "{still:?}");
+    // a look ends as soon as the door is seen wide enough for the footprint, the panes seen on
+    // both sides of it: it has seen what it went to see, and driving on past the door cost
+    // Spot the time to turn back into it (`glass-storefront s100 i5`)
+    let door_seen = |from: f32, to: f32| -> Vec<u8> {
+        (0..grid().len())
+            .map(|i| {
+                let (x, y) = grid().center_of(i / grid().cells, i % grid().cells);
+                if (x - 1.05).abs() < 0.05 && !(from..to).contains(&y) {
+                    cell_class::GLASS
+                } else {
+                    cell_class::FREE
+                }
+            })
+            .collect()
+    };
+    let wide = 2.0 * params.footprint_m() + 0.1;
+    for (door, ends) in [(0.8 * wide, false), (wide + 0.15, true)] {
+        let mut p = driving(params.clone(), t);
+        let mut at = |dt: u64, map: &[u8]| {
+            p.odom(&odom(t + dt)).expect("good odometry");
+            p.on_map(&header(dt / (100 * MS)), map.iter().copied(), t + dt)
+        };
+        for k in 0..=after / (100 * MS) {
+            at(k * 100 * MS, &pane);
+        }
+        let seen = door_seen(-0.4, -0.4 + door as f32);
+        let next = at(after + 100 * MS, &seen);
+        assert_eq!(
+            next.flags & command_flags::LOOKING == 0,
+            ends,
+            "a door {door:.2} m wide seen whole (the footprint needs {wide:.2} m): {next:?}"
+        );
+    }
     // on by default (after 3 s), off with 0; a pane never faced is looked at only with
     // `look_openings_only` off
     let mut any = params.clone();
