@@ -108,7 +108,8 @@ pub struct PlannerConfig {
     /// partition for its opening sweeps the pane faster. Off: on the tune worlds, two episode
     /// seeds each, the Turtlebot 2 123 → 126 of 140 and Spot 105 → 106 with no contact more,
     /// but on the report worlds the Turtlebot 2 came to a storefront's door at full speed and
-    /// touched the pane past it (docs/glass.md).
+    /// touched the pane past it (docs/glass.md). Only motions that keep their heading are
+    /// exempt ([`crate::dwa::TURNING_RPS`]); a turning one keeps the cap.
     pub glass_slow_beside: bool,
     /// A curtain's free end — a thin straight line of passable cells ending in free floor with
     /// nothing beyond it within 0.6 m — is drawn as suspected glass for planning, so the body keeps

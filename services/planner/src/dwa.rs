@@ -107,10 +107,49 @@ pub fn plan_capped(
     goal: (f64, f64),
     route: Option<&Route>,
 ) -> DwaOutcome {
+    plan_capped_turning(
+        p,
+        grid,
+        cost,
+        clear,
+        v0_omega0,
+        (speed_cap, speed_cap),
+        goal,
+        route,
+    )
+}
+
+/// A rollout turns, for the speed caps of [`plan_capped_turning`], above this rate, rad/s: its
+/// heading leaves a pane's direction by more than ~15° within a second.
+pub const TURNING_RPS: f64 = 0.25;
+
+/// [`plan_capped`] with one cap for the rollouts that keep their heading (|ω| ≤
+/// [`TURNING_RPS`]) and another, the first of `(straight, turning)` being no lower, for those
+/// that turn ([`crate::glass_speed_caps`]).
+#[allow(clippy::too_many_arguments)]
+pub fn plan_capped_turning(
+    p: &PlannerParams,
+    grid: GridSpec,
+    cost: &[u8],
+    clear: &Clearance,
+    v0_omega0: (f64, f64),
+    (speed_cap, turning_cap): (f64, f64),
+    goal: (f64, f64),
+    route: Option<&Route>,
+) -> DwaOutcome {
     let gear = Gear::Forward;
     let prune = true;
     search(
-        p, grid, cost, clear, v0_omega0, speed_cap, goal, route, gear, prune,
+        p,
+        grid,
+        cost,
+        clear,
+        v0_omega0,
+        (speed_cap.max(turning_cap), turning_cap),
+        goal,
+        route,
+        gear,
+        prune,
     )
 }
 
@@ -138,7 +177,7 @@ pub fn back_out(
         cost,
         clear,
         v0_omega0,
-        f64::INFINITY,
+        (f64::INFINITY, f64::INFINITY),
         goal,
         route,
         gear,
@@ -177,7 +216,7 @@ fn search(
     cost: &[u8],
     clear: &Clearance,
     (v0, omega0): (f64, f64),
-    speed_cap: f64,
+    (speed_cap, turning_cap): (f64, f64),
     goal: (f64, f64),
     route: Option<&Route>,
     gear: Gear,
@@ -364,6 +403,16 @@ fn search(
         }
         for kw in 0..n_w {
             let w = sample(w_lo, w_hi, kw, pl.omega_samples);
+            // a turning rollout's lane bends towards a pane beside the straight one (no slower
+            // than the window allows, as for the straight cap; with the caps alike, every
+            // sample the window holds, rounding and all)
+            if gear == Gear::Forward
+                && turning_cap < speed_cap
+                && v > turning_cap.max(v_lo)
+                && w.abs() > TURNING_RPS
+            {
+                continue;
+            }
             // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling
             // sin and cos each step
             let (turn_s, turn_c) = (w * dt_s).sin_cos();
@@ -510,6 +559,49 @@ pub(crate) mod tests {
         }
     }
 
+    /// The speed caps of [`plan_capped_turning`]: a turning rollout no faster than its own cap,
+    /// one that keeps its heading up to the other (a pane beside the lane, issue 22).
+    #[test]
+    fn a_turning_rollout_keeps_the_turning_cap_and_a_straight_one_the_other() {
+        let (grid, classes) = map(|_, _| cell_class::FREE);
+        let mut clear = Clearance::default();
+        clear.compute(&classes, grid, 3.0, 5.0);
+        let cost = vec![0u8; classes.len()];
+        let p = PlannerParams::default();
+        let drive = |goal: (f64, f64), caps: (f64, f64)| {
+            let route = route_to(&p, grid, &classes, &cost, goal);
+            match plan_capped_turning(
+                &p,
+                grid,
+                &cost,
+                &clear,
+                (0.3, 0.0),
+                caps,
+                goal,
+                Some(&route),
+            ) {
+                DwaOutcome::Drive { v, omega, .. } => (v, omega),
+                o => panic!("{o:?}"),
+            }
+        };
+        // a goal to the left: uncapped it turns at speed; with the turning cap it turns no
+        // faster than the cap, or keeps its heading (faster)
+        let free = drive((1.0, 2.5), (f64::INFINITY, f64::INFINITY));
+        assert!(free.0 > 0.25 && free.1 > TURNING_RPS, "{free:?}");
+        let capped = drive((1.0, 2.5), (f64::INFINITY, 0.2));
+        assert!(
+            capped.1.abs() <= TURNING_RPS || capped.0 <= 0.2 + 1e-9,
+            "{capped:?}"
+        );
+        assert!(capped.1 > TURNING_RPS, "it still turns: {capped:?}");
+        // a goal straight ahead: the turning cap does not hold it back
+        let ahead = drive((4.0, 0.0), (f64::INFINITY, 0.2));
+        assert!(ahead.0 > 0.4 && ahead.1.abs() <= TURNING_RPS, "{ahead:?}");
+        // both caps alike: the cap of `plan_capped`
+        let both = drive((4.0, 0.0), (0.2, 0.2));
+        assert!(both.0 <= 0.2 + 1e-9, "{both:?}");
+    }
+
     #[test]
     fn a_wall_ahead_with_an_opening_on_the_left_is_driven_around() {
         // wall across at x = 1 m from y = -3 to y = 0.5; open beyond
@@ -637,7 +729,8 @@ pub(crate) mod tests {
             let route = routed.then_some(&route);
             let gear = if reverse { Gear::Reverse } else { Gear::Forward };
             let run = |prune| search(
-                &p, grid, &cost, &clear, (v0, w0), f64::INFINITY, goal, route, gear, prune,
+                &p, grid, &cost, &clear, (v0, w0), (f64::INFINITY, f64::INFINITY), goal, route,
+                gear, prune,
             );
             let (all, pruned) = (run(false), run(true));
             let bits = |o: DwaOutcome| match o {

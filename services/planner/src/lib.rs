@@ -221,14 +221,14 @@ impl Planner {
             let (cost, clear) = (&self.cost, &self.clear);
             return dwa::back_out(p, grid, cost, clear, (v0, omega0), goal, route);
         }
-        let cap = glass_speed_cap(p, classes, grid);
-        dwa::plan_capped(
+        let (cap, turning_cap) = glass_speed_caps(p, classes, grid);
+        dwa::plan_capped_turning(
             p,
             grid,
             &self.cost,
             &self.clear,
             (v0, omega0),
-            cap,
+            (cap, turning_cap),
             goal,
             route,
         )
@@ -284,12 +284,21 @@ pub enum Mode {
 /// With `planner.glass_slow_beside` (off by default) a glass or suspected-glass cell outside the
 /// body's lane (its half width and `planner.margin_m` either side of the heading) whose pane runs
 /// along the heading ([`along_heading`]) does not limit the speed: driving beside a pane does not
-/// bring the body to it.
+/// bring the body to it — driving straight on: a turning motion keeps the cap
+/// ([`glass_speed_caps`]).
 pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64 {
+    glass_speed_caps(p, classes, grid).0
+}
+
+/// [`glass_speed_cap`] for a motion that keeps its heading, and the cap for one that turns:
+/// a pane beside the lane is exempt (`planner.glass_slow_beside`) only for the first, since a
+/// turning body's lane bends towards it. Equal without `glass_slow_beside`.
+pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f64, f64) {
     let (slow, within) = (p.planner.glass_slow_mps, p.planner.glass_slow_within_m);
     let top = p.robot.max_linear_mps;
+    let none = (f64::INFINITY, f64::INFINITY);
     if within <= 0.0 || slow >= top || classes.len() != grid.len() {
-        return f64::INFINITY;
+        return none;
     }
     let body = p.robot.body();
     // a round body's first point to reach a pane's line is the foot of the sensor's
@@ -298,11 +307,12 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
     let reach = (body.enclosing_radius_m() + within) as f32 + grid.cell_m;
     let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(0.0, -reach), grid.cell_of(reach, reach))
     else {
-        return f64::INFINITY;
+        return none;
     };
     // the lane the body sweeps driving straight on, with its margin
     let lane = (body.half_width_m() + p.planner.margin_m) as f32;
     let mut nearest = f64::INFINITY;
+    let mut nearest_turning = f64::INFINITY;
     for r in r0.min(r1)..=r0.max(r1) {
         for c in c0.min(c1)..=c0.max(c1) {
             let class = classes[grid.index(r, c)];
@@ -314,25 +324,31 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
                 continue;
             }
             let d = body.signed_distance(f64::from(x), f64::from(y));
-            if d >= nearest {
+            if d >= nearest_turning {
                 continue;
             }
-            let slows = if cell_class::is_glass(class) {
-                !(p.planner.glass_slow_beside
+            if cell_class::is_glass(class) {
+                nearest_turning = d;
+                let beside = p.planner.glass_slow_beside
                     && y.abs() > lane
-                    && along_heading(classes, grid, r, c))
-            } else {
-                is_post(classes, grid, r, c) || ends && is_end(classes, grid, r, c)
-            };
-            if slows {
-                nearest = d;
+                    && along_heading(classes, grid, r, c);
+                if !beside {
+                    nearest = nearest.min(d);
+                }
+            } else if is_post(classes, grid, r, c) || ends && is_end(classes, grid, r, c) {
+                nearest_turning = d;
+                nearest = nearest.min(d);
             }
         }
     }
-    if nearest >= within {
-        return f64::INFINITY;
-    }
-    slow + (top - slow) * (nearest / within).clamp(0.0, 1.0)
+    let cap = |d: f64| {
+        if d >= within {
+            f64::INFINITY
+        } else {
+            slow + (top - slow) * (d / within).clamp(0.0, 1.0)
+        }
+    };
+    (cap(nearest), cap(nearest_turning))
 }
 
 /// Rows [`along_heading`] looks ahead and behind a glass cell for the rest of its pane, m.
@@ -631,10 +647,20 @@ mod tests {
         // along the way but inside the lane (0.3 m: the half width and the margin): it slows
         let inside = |x: f32, y: f32| (y - 0.25).abs() < 0.03 && x > 0.5 && x < 3.0;
         assert!(cap(&inside) < 0.45, "{}", cap(&inside));
-        // off, the pane beside slows as before
+        // ... but not a turning motion, whose lane bends towards it
+        let (grid, classes) = crate::clearance::tests::map(|x, y| match beside(x, y) {
+            true => cell_class::GLASS,
+            false => cell_class::FREE,
+        });
+        let (straight, turning) = glass_speed_caps(&p, &classes, grid);
+        assert_eq!(straight, f64::INFINITY);
+        assert!(turning < 0.4, "{turning}");
+        // off, the pane beside slows as before, both motions
         let mut off = p.clone();
         off.planner.glass_slow_beside = false;
         assert!(cap_for(&off, cell_class::GLASS, &beside) < 0.4);
+        let (straight, turning) = glass_speed_caps(&off, &classes, grid);
+        assert_eq!(straight, turning);
     }
 
     #[test]
