@@ -324,11 +324,13 @@ pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f
                 continue;
             }
             let d = body.signed_distance(f64::from(x), f64::from(y));
-            if d >= nearest_turning {
+            // (`nearest` is never below `nearest_turning`: a cell no nearer than it changes
+            // neither)
+            if d >= nearest {
                 continue;
             }
             if cell_class::is_glass(class) {
-                nearest_turning = d;
+                nearest_turning = nearest_turning.min(d);
                 let beside = p.planner.glass_slow_beside
                     && y.abs() > lane
                     && along_heading(classes, grid, r, c);
@@ -336,7 +338,7 @@ pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f
                     nearest = nearest.min(d);
                 }
             } else if is_post(classes, grid, r, c) || ends && is_end(classes, grid, r, c) {
-                nearest_turning = d;
+                nearest_turning = nearest_turning.min(d);
                 nearest = nearest.min(d);
             }
         }
@@ -655,6 +657,15 @@ mod tests {
         let (straight, turning) = glass_speed_caps(&p, &classes, grid);
         assert_eq!(straight, f64::INFINITY);
         assert!(turning < 0.4, "{turning}");
+        // a pane across the way beyond the one beside: the straight motion slows for it, though
+        // the nearer pane beside does not slow it
+        let (grid, both) =
+            crate::clearance::tests::map(|x, y| match beside(x, y) || across(x, y) {
+                true => cell_class::GLASS,
+                false => cell_class::FREE,
+            });
+        let (straight, _) = glass_speed_caps(&p, &both, grid);
+        assert!(straight < 0.45, "{straight}");
         // off, the pane beside slows as before, both motions
         let mut off = p.clone();
         off.planner.glass_slow_beside = false;
