@@ -331,9 +331,8 @@ struct Look {
     /// The look under way: its target in the odometry frame, and when it ends at the latest.
     target: Option<(f64, f64)>,
     until: u64,
-    /// Where the route met the stretch looked at (odometry frame), and the seen gap that ends
-    /// the look: the footprint's width, as the look began only while the gap was narrower.
-    at: Option<((f64, f64), f64)>,
+    /// Where the route met the stretch looked at (odometry frame).
+    at: Option<(f64, f64)>,
     /// Looks since the route last fell by [`PROGRESS_M`].
     tries: u32,
 }
@@ -742,7 +741,8 @@ impl Pilot {
         // the door has been seen whole, edge to edge, and wide enough: what the look went to see
         // (the route now goes through it); the suspected stretch beyond it, which the look's
         // target lies past, is the pane's line drawn on past the door's far edge
-        let seen = self.look.at.is_some_and(|((ax, ay), wide)| {
+        let wide = self.door_wide_m(grid);
+        let seen = self.look.at.is_some_and(|(ax, ay)| {
             crate::guard::goal_in_robot_frame(pose, ax, ay)
                 .and_then(|at| crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M))
                 .is_some_and(|s| s.whole_m >= wide)
@@ -767,6 +767,12 @@ impl Pilot {
                 None
             }
         }
+    }
+
+    /// The seen gap a door needs for the footprint (twice its half width and margin, and a
+    /// cell): a look starts only at a narrower one and ends once the door is seen whole this wide.
+    fn door_wide_m(&self, grid: GridSpec) -> f64 {
+        2.0 * self.params().footprint_m() + f64::from(grid.cell_m)
     }
 
     /// After a forward plan: when the route has led no nearer the goal for
@@ -801,7 +807,7 @@ impl Pilot {
         // a door seen in part, its seen gap still too narrow for the footprint
         let (only, wide) = (
             self.params().planner.look_openings_only,
-            2.0 * footprint + f64::from(grid.cell_m),
+            self.door_wide_m(grid),
         );
         let s = crate::look::stretch_at(&self.classes, grid, at, LOOK_RADIUS_M)
             .filter(|s| s.worth_a_look(only, wide))?;
@@ -829,7 +835,7 @@ impl Pilot {
         );
         use mimnav_shared::pose::Pose2Ext as _;
         l.target = Some(pose.to_fixed(tx, ty));
-        l.at = Some((pose.to_fixed(at.0, at.1), wide));
+        l.at = Some(pose.to_fixed(at.0, at.1));
         l.until = now.saturating_add(look_ns);
         l.tries += 1;
         l.progress.restart(now);
