@@ -29,7 +29,8 @@ impl GridSpec {
         // below sound regardless)
         let n = self.cells.min(u32::MAX as usize) as f32;
         // truncation is the floor for the non-negative values that pass the test (and NaN fails)
-        if r >= 0.0 && c >= 0.0 && r < n && c < n {
+        // (one branch, not four: whether a far return falls on the grid is hard to predict)
+        if (r >= 0.0) & (c >= 0.0) & (r < n) & (c < n) {
             // SAFETY: r and c are finite and in [0, n) with n ≤ 2^32, so they truncate to a
             // u32 (a saturating `as` costs the caller's hottest loops a tenth of their
             // instructions)

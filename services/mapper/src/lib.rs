@@ -481,12 +481,8 @@ impl Mapper {
     #[inline]
     fn mean(&self, j: usize, i: usize) -> f32 {
         let cell = &self.layer[i * self.bounds.len() + j];
-        let c = cell.count;
-        if c == 0 {
-            0.0
-        } else {
-            cell.sum / (f32::from(c) * self.params.mapper.full_scale as f32)
-        }
+        // an empty layer's sum is 0: 0 over 1 is its mean without a branch
+        cell.sum / (f32::from(cell.count.max(1)) * self.params.mapper.full_scale as f32)
     }
 
     /// Diagnostics of cell i: (returns, single-echo returns, returns a beam passed through,
@@ -696,9 +692,7 @@ impl Mapper {
             let p = &p;
             let horizontal = (p.x * p.x + p.y * p.y).sqrt();
             let bin = usize::from(az_cdeg / 50) % REACH_BINS;
-            if horizontal > self.reach[bin] {
-                self.reach[bin] = horizontal;
-            }
+            self.reach[bin] = self.reach[bin].max(horizontal);
             let d = p.distance_m().max(1e-3);
             let sin_el = p.z / d;
             let strongest = p.return_type & return_type::STRONGEST != 0;
@@ -816,12 +810,11 @@ impl Mapper {
                 touch(&mut self.state, &mut self.touched, &mut self.redo, i);
                 let e = &mut self.evidence[i];
                 e.hits = e.hits.saturating_add(1);
-                if e.hits == 1 || p.z > e.top_z {
-                    e.top_z = p.z;
-                }
-                if p.return_type == return_type::BOTH && p.intensity >= opaque_min {
-                    e.single = e.single.saturating_add(1);
-                }
+                // (selects, not branches: in grass which way they go is a coin toss)
+                e.top_z = e.top_z.max(p.z);
+                e.single = e.single.saturating_add(u16::from(
+                    (p.return_type == return_type::BOTH) & (p.intensity >= opaque_min),
+                ));
             }
         }
     }
@@ -1365,16 +1358,14 @@ impl Mapper {
                 if lr.cell == NO_CELL {
                     continue;
                 }
-                // the return itself is within the tolerance of itself: need + 1 in the window;
-                // stop counting as soon as they are there (a wall gets there in need + 1 steps)
+                // the return itself is within the tolerance of itself: need + 1 in the window.
+                // The whole window is counted: stopping once they are there saved a few
+                // comparisons and cost a mispredicted branch a return in grass
                 let near = &ring[k.saturating_sub(w)..(k + w + 1).min(ring.len())];
-                let mut same = 0;
-                for q in near {
-                    same += usize::from((q.range - lr.range).abs() < tol);
-                    if same > need {
-                        break;
-                    }
-                }
+                let same = near
+                    .iter()
+                    .filter(|q| (q.range - lr.range).abs() < tol)
+                    .count();
                 if same > need {
                     self.flat.push((lr.cell, lr.z));
                 }
@@ -1631,7 +1622,7 @@ struct LayerCell {
 }
 
 /// What the dual returns say about one cell.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct Evidence {
     /// Returns in the main layers.
     hits: u16,
@@ -1650,6 +1641,22 @@ struct Evidence {
     pass_low_z: f32,
     /// Height of the highest return, sensor frame, m.
     top_z: f32,
+}
+
+impl Default for Evidence {
+    fn default() -> Self {
+        Self {
+            hits: 0,
+            single: 0,
+            passed: 0,
+            inside: 0,
+            stopped: 0,
+            surface: 0,
+            pass_low_z: 0.0,
+            // below every return: the first one raises it
+            top_z: f32::NEG_INFINITY,
+        }
+    }
 }
 
 /// Cell `i` is written: listed in `touched` the first time, in `redo` when it was settled.
