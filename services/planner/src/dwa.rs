@@ -79,41 +79,13 @@ pub fn plan(
     goal: (f64, f64),
     route: Option<&Route>,
 ) -> DwaOutcome {
-    plan_capped(
-        p,
-        grid,
-        cost,
-        clear,
-        (v0, omega0),
-        f64::INFINITY,
-        goal,
-        route,
-    )
-}
-
-/// [`plan`] with the speeds sampled no higher than `speed_cap` (m/s; the window still starts
-/// from the current speed, so a robot faster than the cap slows at its deceleration limit).
-/// A `route` that knows no way from the robot's place to the goal is not used: progress is the
-/// straight-line distance and the speed at most `planner.glass_slow_mps`
-/// (`DwaOutcome::Drive::routed` false; [`crate::pilot`] stops after `planner.no_route_stop_s`).
-#[allow(clippy::too_many_arguments)]
-pub fn plan_capped(
-    p: &PlannerParams,
-    grid: GridSpec,
-    cost: &[u8],
-    clear: &Clearance,
-    v0_omega0: (f64, f64),
-    speed_cap: f64,
-    goal: (f64, f64),
-    route: Option<&Route>,
-) -> DwaOutcome {
     plan_capped_turning(
         p,
         grid,
         cost,
         clear,
-        v0_omega0,
-        (speed_cap, speed_cap),
+        (v0, omega0),
+        (f64::INFINITY, f64::INFINITY),
         goal,
         route,
     )
@@ -123,9 +95,13 @@ pub fn plan_capped(
 /// heading leaves a pane's direction by more than ~15° within a second.
 pub const TURNING_RPS: f64 = 0.25;
 
-/// [`plan_capped`] with one cap for the rollouts that keep their heading (|ω| ≤
-/// [`TURNING_RPS`]) and another, the first of `(straight, turning)` being no lower, for those
-/// that turn ([`crate::glass_speed_caps`]).
+/// [`plan`] with the speeds sampled no higher than a cap (m/s; the window still starts from the
+/// current speed, so a robot faster than the cap slows at its deceleration limit): the first of
+/// `(straight, turning)` for the rollouts that keep their heading (|ω| ≤ [`TURNING_RPS`]), the
+/// second for those that turn ([`crate::glass_speed_caps`]; the same cap twice caps every
+/// rollout alike). A `route` that knows no way from the robot's place to the goal is not used:
+/// progress is the straight-line distance and the speed at most `planner.glass_slow_mps`
+/// (`DwaOutcome::Drive::routed` false; [`crate::pilot`] stops after `planner.no_route_stop_s`).
 #[allow(clippy::too_many_arguments)]
 pub fn plan_capped_turning(
     p: &PlannerParams,
@@ -597,7 +573,7 @@ pub(crate) mod tests {
         // a goal straight ahead: the turning cap does not hold it back
         let ahead = drive((4.0, 0.0), (f64::INFINITY, 0.2));
         assert!(ahead.0 > 0.4 && ahead.1.abs() <= TURNING_RPS, "{ahead:?}");
-        // both caps alike: the cap of `plan_capped`
+        // both caps alike: every rollout capped
         let both = drive((4.0, 0.0), (0.2, 0.2));
         assert!(both.0 <= 0.2 + 1e-9, "{both:?}");
     }
