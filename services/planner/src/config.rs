@@ -102,14 +102,15 @@ pub struct PlannerConfig {
     /// pane where it would first touch it). On the tune worlds, two episode seeds, Spot 99 →
     /// 101 of 140, contacts 20 → 11, no family lower (docs/glass.md).
     pub glass_slow_ends: bool,
-    /// A pane running along the heading (within about 15°) beside the body's lane does not
-    /// limit the speed: driving straight on, the body passes it, and the part not yet seen goes
-    /// on along the same line (a pane across the way still does). A robot searching a
-    /// partition for its opening sweeps the pane faster. Off: on the tune worlds, two episode
-    /// seeds each, the Turtlebot 2 123 → 126 of 140 and Spot 105 → 106 with no contact more,
-    /// but on the report worlds the Turtlebot 2 came to a storefront's door at full speed and
-    /// touched the pane past it (docs/glass.md). Only motions that keep their heading are
-    /// exempt ([`crate::dwa::TURNING_RPS`]); a turning one keeps the cap.
+    /// A round body: a pane running along the heading (within about 15°) beside the body's
+    /// lane does not limit the speed: driving straight on, the body passes it, and the part not
+    /// yet seen goes on along the same line (a pane across the way still does). A robot
+    /// searching a partition for its opening sweeps the pane faster. Only motions that keep
+    /// their heading are exempt ([`crate::dwa::TURNING_RPS`]); a turning one keeps the cap. A
+    /// long body keeps it always: past a pane at speed, it reaches the door at the pane's end
+    /// too fast to square up to it. On since stop 64: the Turtlebot 2's tune worlds 285 → 294
+    /// of 320 and its report worlds 350 → 355 of 400, no contact more; Spot's tune worlds lost
+    /// (123 → 120 of 160) (docs/evaluation.md).
     pub glass_slow_beside: bool,
     /// A curtain's free end — a thin straight line of passable cells ending in free floor with
     /// nothing beyond it within 0.6 m — is drawn as suspected glass for planning, so the body keeps
@@ -209,7 +210,7 @@ impl Default for PlannerConfig {
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
             glass_slow_ends: true,
-            glass_slow_beside: false,
+            glass_slow_beside: true,
             curtain_ends: true,
             recovery_after_s: 1.5,
             recovery_s: 2.0,

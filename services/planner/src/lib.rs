@@ -281,11 +281,11 @@ pub enum Mode {
 /// later, and the point where its beams meet the pane squarely slides along the pane more
 /// slowly, so more of it is seen per metre driven.
 ///
-/// With `planner.glass_slow_beside` (off by default) a glass or suspected-glass cell outside the
-/// body's lane (its half width and `planner.margin_m` either side of the heading) whose pane runs
-/// along the heading ([`along_heading`]) does not limit the speed: driving beside a pane does not
-/// bring the body to it — driving straight on: a turning motion keeps the cap
-/// ([`glass_speed_caps`]).
+/// With `planner.glass_slow_beside` (on by default; a round body only) a glass or
+/// suspected-glass cell outside the body's lane (its half width and `planner.margin_m` either
+/// side of the heading) whose pane runs along the heading ([`along_heading`]) does not limit the
+/// speed: driving beside a pane does not bring the body to it — driving straight on: a turning
+/// motion keeps the cap ([`glass_speed_caps`]).
 pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64 {
     glass_speed_caps(p, classes, grid).0
 }
@@ -304,6 +304,9 @@ pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f
     // a round body's first point to reach a pane's line is the foot of the sensor's
     // perpendicular, where the pane spikes: only a long body's corner crosses the line unseen
     let ends = p.planner.glass_slow_ends && matches!(body, Body::Rectangle { .. });
+    // a long body keeps the cap beside a pane: come past the pane at speed, it reaches the door
+    // at the pane's end too fast to square up to it, and must turn in or go round again
+    let beside_exempt = p.planner.glass_slow_beside && !matches!(body, Body::Rectangle { .. });
     let reach = (body.enclosing_radius_m() + within) as f32 + grid.cell_m;
     let (Some((r0, c0)), Some((r1, c1))) = (grid.cell_of(0.0, -reach), grid.cell_of(reach, reach))
     else {
@@ -331,7 +334,7 @@ pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f
             }
             if cell_class::is_glass(class) {
                 nearest_turning = nearest_turning.min(d);
-                let beside = p.planner.glass_slow_beside
+                let beside = beside_exempt
                     && y.abs() > lane
                     && along_heading(classes, grid, r, c);
                 if !beside {
@@ -597,8 +600,10 @@ mod tests {
             DwaOutcome::Drive { v, .. } => v,
             o => panic!("{o:?}"),
         };
-        // the rule itself, on a pane along the way (`glass_slow_beside` would exempt it: below)
-        let p = PlannerParams::default();
+        // the rule itself, on a pane along the way (`glass_slow_beside`, on by default, exempts
+        // it: below)
+        let mut p = PlannerParams::default();
+        p.planner.glass_slow_beside = false;
         // 0.4 m from the body's edge: 0.2 + (0.5 − 0.2) · 0.4 / 1.0 m/s
         let cap = glass_speed_cap(&p, &beside(0.0).1, beside(0.0).0);
         assert!((cap - 0.32).abs() < 0.03, "{cap}");
@@ -617,8 +622,8 @@ mod tests {
 
     #[test]
     fn a_pane_along_the_way_beside_the_lane_does_not_slow_and_one_across_it_does() {
-        let mut p = PlannerParams::default();
-        p.planner.glass_slow_beside = true;
+        let p = PlannerParams::default();
+        assert!(p.planner.glass_slow_beside, "on by default");
         // the cap with the cells where `f` holds of class `class`, the rest free
         let cap_for = |p: &PlannerParams, class: u8, f: &dyn Fn(f32, f32) -> bool| {
             let (grid, classes) = crate::clearance::tests::map(|x, y| match f(x, y) {
@@ -671,6 +676,12 @@ mod tests {
         off.planner.glass_slow_beside = false;
         assert!(cap_for(&off, cell_class::GLASS, &beside) < 0.4);
         let (straight, turning) = glass_speed_caps(&off, &classes, grid);
+        assert_eq!(straight, turning);
+        // a long body: the pane beside slows it, key on or off
+        let mut spot = crate::dwa::tests::spot();
+        spot.planner.glass_slow_beside = true;
+        let (straight, turning) = glass_speed_caps(&spot, &classes, grid);
+        assert!(straight < 0.5, "{straight}");
         assert_eq!(straight, turning);
     }
 
