@@ -291,8 +291,9 @@ pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64
 }
 
 /// [`glass_speed_cap`] for a motion that keeps its heading, and the cap for one that turns:
-/// a pane beside the lane is exempt (`planner.glass_slow_beside`) only for the first, since a
-/// turning body's lane bends towards it. Equal without `glass_slow_beside`.
+/// a pane beside the lane is exempt (`planner.glass_slow_beside`, a round body) only for the
+/// first, since a turning body's lane bends towards it. Equal without `glass_slow_beside` and
+/// for a long body.
 pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f64, f64) {
     let (slow, within) = (p.planner.glass_slow_mps, p.planner.glass_slow_within_m);
     let top = p.robot.max_linear_mps;
