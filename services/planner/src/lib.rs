@@ -335,9 +335,7 @@ pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f
             }
             if cell_class::is_glass(class) {
                 nearest_turning = nearest_turning.min(d);
-                let beside = beside_exempt
-                    && y.abs() > lane
-                    && along_heading(classes, grid, r, c);
+                let beside = beside_exempt && y.abs() > lane && along_heading(classes, grid, r, c);
                 if !beside {
                     nearest = nearest.min(d);
                 }
