@@ -140,6 +140,46 @@ fn a_dim_cell_no_beam_passes_through_is_solid() {
     assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
 }
 
+#[test]
+fn a_cells_highest_return_makes_it_tall_whichever_comes_first() {
+    // (`Evidence::top_z` starts below every return and takes the maximum, with no branch on
+    // whether a return is the cell's first)
+    let p = MapperParams::default();
+    let tall_z = (p.mapper.tall_m - p.robot.sensor_height_m) as f32;
+    // dim returns, each the last of its firing, none with anything behind it: grass blades
+    let blade = |z: f32| pt(2.0, 2.0, z, 10, 3, return_type::LAST);
+    let blades = [blade(-0.2), blade(-0.1), blade(0.0)];
+    let mut m = mapper();
+    m.update(&blades, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
+    // one return above `tall_m`, first or last: tall, hence solid
+    for first in [true, false] {
+        let mut pts = blades.to_vec();
+        let top = blade(tall_z + 0.1);
+        if first {
+            pts.insert(0, top);
+        } else {
+            pts.push(top);
+        }
+        let mut m = mapper();
+        m.update(&pts, OdomInput::Missing, 0);
+        assert_eq!(
+            class_at(&m, 2.0, 2.0),
+            cell_class::SOLID,
+            "top first: {first}"
+        );
+    }
+    // every return below the sensor and below a `tall_m` lower than the sensor (tall_z < 0):
+    // not tall (a top starting at 0, the sensor's height, would make it so)
+    let mut m = mapper_with(|m| m.tall_m = 0.3);
+    m.update(
+        &[blade(-0.35), blade(-0.3), blade(-0.25)],
+        OdomInput::Missing,
+        0,
+    );
+    assert_eq!(class_at(&m, 2.0, 2.0), cell_class::PASSABLE);
+}
+
 /// A firing seen through grass: a faint blade echo (strongest) at `blade` m, then the last echo
 /// at (x, y, z), in the driver's order (last first), sharing the firing's azimuth.
 fn through_blade(x: f32, y: f32, z: f32, blade: f32, laser: u8) -> [Point; 2] {
