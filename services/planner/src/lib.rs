@@ -269,7 +269,7 @@ pub enum Mode {
     Back,
 }
 
-/// The top speed near glass (`planner.glass_slow_mps` with glass at the body's edge, rising
+/// The top speeds near glass (`planner.glass_slow_mps` with glass at the body's edge, rising
 /// linearly to the robot's top speed `planner.glass_slow_within_m` away from it), from the
 /// nearest glass cell — or post standing alone on open floor, which frames unseen panes — ahead of the robot's
 /// centre (x > 0 in the map's robot frame; glass behind it is not driven into). Infinite with no
@@ -285,15 +285,11 @@ pub enum Mode {
 /// suspected-glass cell outside the body's lane (its half width and `planner.margin_m` either
 /// side of the heading) whose pane runs along the heading ([`along_heading`]) does not limit the
 /// speed: driving beside a pane does not bring the body to it — driving straight on: a turning
-/// motion keeps the cap ([`glass_speed_caps`]).
-pub fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64 {
-    glass_speed_caps(p, classes, grid).0
-}
-
-/// [`glass_speed_cap`] for a motion that keeps its heading, and the cap for one that turns:
-/// a pane beside the lane is exempt (`planner.glass_slow_beside`, a round body) only for the
-/// first, since a turning body's lane bends towards it. Equal without `glass_slow_beside` and
-/// for a long body.
+/// motion keeps the cap.
+///
+/// Two caps: for a motion that keeps its heading, and for one that turns — a pane beside the
+/// lane is exempt only for the first, since a turning body's lane bends towards it. Equal
+/// without `glass_slow_beside` and for a long body.
 pub fn glass_speed_caps(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> (f64, f64) {
     let (slow, within) = (p.planner.glass_slow_mps, p.planner.glass_slow_within_m);
     let top = p.robot.max_linear_mps;
@@ -487,6 +483,11 @@ fn free_under_body(classes: &[u8], grid: GridSpec, body: &Body, out: &mut Vec<u8
 mod tests {
     use super::*;
     use mimnav_shared::topics::cell_class;
+
+    /// The cap of a motion that keeps its heading.
+    fn glass_speed_cap(p: &PlannerParams, classes: &[u8], grid: GridSpec) -> f64 {
+        glass_speed_caps(p, classes, grid).0
+    }
 
     /// True when the plan drives on without turning.
     fn straight(o: DwaOutcome) -> bool {
