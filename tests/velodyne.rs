@@ -117,6 +117,27 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
         return;
     };
     let expected = reference_counts(&data, "vlp16_dual_nebula");
+    // Loopback loses datagrams only when the driver is descheduled long enough for its receive
+    // buffer to fill (CI's two cores run other tests' services beside it). Such a loss must be
+    // counted, never silent; the exchange then runs again with a fresh driver, as the faults it
+    // checks may have been among the lost datagrams.
+    for attempt in 1..=3 {
+        match udp_exchange(&data, &expected) {
+            Ok(()) => return,
+            Err(dropped) => {
+                println!(
+                    "NOTE attempt {attempt}: {dropped} datagrams dropped by the kernel under load"
+                )
+            }
+        }
+    }
+    panic!("the kernel dropped datagrams in each of 3 attempts");
+}
+
+/// One run of [`udp_input_counts_bad_datagrams_and_keeps_going`]: every assertion when no datagram
+/// was lost; `Err(dropped)` when the kernel dropped some, after checking that the driver counted
+/// them and that the revolutions differ by no more than their points.
+fn udp_exchange(data: &Path, expected: &[u32]) -> Result<(), u64> {
     let domain = PrivateDomain::new("e2e-udp");
     let tap = PointsTap::open(&domain);
     let port = free_udp_port();
@@ -187,11 +208,6 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
     });
     sender.join().expect("sender");
     let counts: Vec<u32> = got.counts.iter().map(|&c| c as u32).collect();
-    assert_eq!(
-        counts,
-        expected[..expected.len() - 1],
-        "the same revolutions as the replay"
-    );
     let status = p
         .terminate(Duration::from_secs(1))
         .expect("exits within 1 s of SIGTERM");
@@ -205,6 +221,21 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
         .find(|l| l.contains("faults:"))
         .cloned()
         .unwrap_or_default();
+    let reference = &expected[..expected.len() - 1];
+    let dropped = kernel_drops(&last).unwrap_or(0);
+    if dropped > 0 {
+        let want: u32 = reference.iter().sum();
+        let have: u32 = counts.iter().take(reference.len()).sum();
+        assert!(
+            have.abs_diff(want) <= dropped as u32 * POINTS_PER_DUAL_PACKET,
+            "{have} of {want} points with {dropped} datagrams dropped: {seen:#?}"
+        );
+        return Err(dropped);
+    }
+    assert_eq!(
+        counts, reference,
+        "the same revolutions as the replay, none dropped by the kernel: {seen:#?}"
+    );
     assert!(
         last.contains("wrong_length=2"),
         "two wrong-sized datagrams counted: {seen:#?}"
@@ -218,6 +249,17 @@ fn udp_input_counts_bad_datagrams_and_keeps_going() {
             .any(|l| l.contains("WARN") && l.contains("datagram of 100 bytes")),
         "the first fault of a kind is logged with its sender: {seen:#?}"
     );
+    Ok(())
+}
+
+/// Most points one dual-return data packet gives: 12 blocks in 6 pairs of 32 channels, two
+/// returns each.
+const POINTS_PER_DUAL_PACKET: u32 = 6 * 32 * 2;
+
+/// N of the driver's "N datagrams dropped by the kernel" in `line`; `None` when it does not say.
+fn kernel_drops(line: &str) -> Option<u64> {
+    let (head, _) = line.split_once(" datagrams dropped by the kernel")?;
+    head.rsplit([' ', ',']).next()?.parse().ok()
 }
 
 fn synthetic_capture(path: &Path, packets: u32) {
