@@ -216,10 +216,32 @@ fn breakdown(config: &Config, maps: &[Case]) {
         Route::default(),
     );
     let reach = params.reach_m() as f32 + 2.0 * grid.cell_m;
-    let mut t = [0.0f64; 4];
-    let mut all: [Vec<f64>; 4] = Default::default();
+    let mut t = [0.0f64; 5];
+    let mut all: [Vec<f64>; 5] = Default::default();
     let mut n = 0;
-    for (classes, v, w, goal) in maps.iter().cycle().take(maps.len() * 20) {
+    // the route's memory (`planner.route_memory_m`) as the pilot keeps it, the robot taken 0.1 m
+    // on along x each map (the maps' contents do not move with it, so the memory holds more
+    // than on a drive: an upper bound)
+    let mut memory = mimnav_planner::memory::Memory::default();
+    let (memory_m, memory_ns) = (p.route_memory_m, params.route_memory_ns());
+    for (k, (classes, v, w, goal)) in maps.iter().cycle().take(maps.len() * 20).enumerate() {
+        let s = Instant::now();
+        let pose = mimnav_shared::pose::pose2(0.1 * k as f64, 0.0, 0.0);
+        let now = k as u64 * 100_000_000;
+        memory.update(&pose, classes, grid, now, memory_ns, memory_m);
+        let fixed = pose.to_fixed(goal.0, goal.1);
+        let local = (goal.0 as f32, goal.1 as f32);
+        let beyond = memory.beyond(
+            &pose,
+            fixed,
+            local,
+            now,
+            memory_m,
+            p.route_suspect_weight as f32,
+        );
+        route.set_beyond(Some(beyond));
+        all[4].push(s.elapsed().as_secs_f64());
+        t[4] += s.elapsed().as_secs_f64();
         let s = Instant::now();
         plan_cost(
             classes,
@@ -265,9 +287,9 @@ fn breakdown(config: &Config, maps: &[Case]) {
         v.sort_by(f64::total_cmp);
         v.get(v.len() * 99 / 100).map_or(0.0, |x| x * 1e6)
     };
-    let [a, b, c, d] = &mut all;
+    let [a, b, c, d, e] = &mut all;
     println!(
-        "  stages, mean (p99): inflation {:.0} ({:.0}) µs, clearance {:.0} ({:.0}) µs, route {:.0} ({:.0}) µs, dynamic window {:.0} ({:.0}) µs",
+        "  stages, mean (p99): inflation {:.0} ({:.0}) µs, clearance {:.0} ({:.0}) µs, route {:.0} ({:.0}) µs, dynamic window {:.0} ({:.0}) µs, route memory {:.0} ({:.0}) µs",
         us(t[0]),
         p99(a),
         us(t[1]),
@@ -275,7 +297,9 @@ fn breakdown(config: &Config, maps: &[Case]) {
         us(t[2]),
         p99(c),
         us(t[3]),
-        p99(d)
+        p99(d),
+        us(t[4]),
+        p99(e)
     );
 }
 

@@ -84,6 +84,13 @@ pub struct PlannerConfig {
     /// would touch it costs this many metres more, so the route leads there only when no
     /// cheaper way is known, and the robot goes to face it (0: it closes the route like glass).
     pub route_suspect_weight: f64,
+    /// The route remembers the solids, glass and suspected glass of past maps this far from the
+    /// robot (on a 0.5 m lattice in the odometry frame) and leads round them beyond the local
+    /// map, where it otherwise assumes the world open; a place the map covers is what the map
+    /// shows, m (0: no memory).
+    pub route_memory_m: f64,
+    /// ... for this long after a map last showed them, s.
+    pub route_memory_s: f64,
     /// Obstacles the foliage classifier confirms are solid for the planner (false: ignore it).
     pub use_foliage: bool,
     /// When the map holds no route to the goal for the robot's body, the planner drives on by
@@ -205,6 +212,8 @@ impl Default for PlannerConfig {
             route_berth_m: 0.0,
             route_end_m: 0.0,
             route_suspect_weight: 10.0,
+            route_memory_m: 15.0,
+            route_memory_s: 120.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
             glass_slow_mps: 0.2,
@@ -303,6 +312,8 @@ impl PlannerConfig {
             0.0,
             1000.0,
         );
+        r.check("planner.route_memory_m", self.route_memory_m, 0.0, 100.0);
+        r.check("planner.route_memory_s", self.route_memory_s, 0.0, 3600.0);
         r.check("planner.glass_slow_mps", self.glass_slow_mps, 0.01, 10.0);
         r.check("planner.no_route_stop_s", self.no_route_stop_s, 0.0, 3600.0);
         r.check(

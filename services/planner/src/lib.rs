@@ -23,6 +23,7 @@ pub mod guard;
 pub mod inflate;
 pub mod jamb;
 pub mod look;
+pub mod memory;
 pub mod params;
 pub mod pilot;
 pub mod route;
@@ -248,6 +249,12 @@ impl Planner {
     /// that follow ([`Route::set_given_up`]).
     pub fn set_given_up(&mut self, discs: impl IntoIterator<Item = (f32, f32, f32)>) {
         self.route.set_given_up(discs);
+    }
+
+    /// Sets the lengths to the goal beyond the map the route's border starts from
+    /// ([`Route::set_beyond`]).
+    pub fn set_beyond(&mut self, beyond: Option<&crate::memory::Beyond>) {
+        self.route.set_beyond(beyond);
     }
 }
 

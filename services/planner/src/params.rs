@@ -167,6 +167,11 @@ impl PlannerParams {
         seconds_ns(self.planner.give_up_s)
     }
 
+    /// How long the route remembers what a map showed (`planner.route_memory_s`), ns.
+    pub fn route_memory_ns(&self) -> u64 {
+        seconds_ns(self.planner.route_memory_s)
+    }
+
     /// How long one look lasts at most (`planner.look_s`), ns.
     pub fn look_ns(&self) -> u64 {
         seconds_ns(self.planner.look_s)

@@ -191,6 +191,8 @@ pub struct Pilot {
     back_out: BackOut,
     /// Going to look at suspected glass: see [`Look`].
     look: Look,
+    /// The solids and glass of past maps, for the route beyond the map.
+    memory: crate::memory::Memory,
     /// Squeezing through: see [`Tight`].
     tight: Tight,
     /// Suspected glass given up: see [`GiveUp`].
@@ -364,6 +366,7 @@ impl Pilot {
             map_hop: Hop::new(),
             back_out: BackOut::default(),
             look: Look::default(),
+            memory: crate::memory::Memory::default(),
             tight: Tight::default(),
             given_up: GiveUp::default(),
         }
@@ -540,6 +543,7 @@ impl Pilot {
             );
         }
         self.draw_given_up(&pose, now);
+        self.remember(grid, &pose, (goal.x, goal.y), (gx, gy), now);
         let (v0, omega0) = (f64::from(odom.v), f64::from(odom.omega));
         if let Some(d) = self.backing_out(grid, (v0, omega0), (gx, gy), now, flags, header) {
             return d;
@@ -673,6 +677,31 @@ impl Pilot {
         let touch = self.params().footprint_m() + 2.0 * self.params().planner.route_cell_m;
         let route = self.planner.route();
         crate::look::route_meets_suspected(route, &self.classes, grid, LOOK_WITHIN_M, touch)
+    }
+
+    /// Takes this map into the route's memory and hands the planner the lengths to the goal
+    /// (odometry frame; `local` the same in the robot frame) beyond the map
+    /// (`planner.route_memory_m`; [`crate::memory`]).
+    fn remember(
+        &mut self,
+        grid: GridSpec,
+        pose: &mimnav_shared::pose::Pose2,
+        goal: (f64, f64),
+        local: (f64, f64),
+        now: u64,
+    ) {
+        let p = self.params();
+        let (radius_m, keep_ns) = (p.planner.route_memory_m, p.route_memory_ns());
+        let suspect_weight = p.planner.route_suspect_weight as f32;
+        if radius_m <= 0.0 || p.planner.route_cell_m <= 0.0 {
+            self.planner.set_beyond(None);
+            return;
+        }
+        let m = &mut self.memory;
+        m.update(pose, &self.classes, grid, now, keep_ns, radius_m);
+        let local = (local.0 as f32, local.1 as f32);
+        let beyond = m.beyond(pose, goal, local, now, radius_m, suspect_weight);
+        self.planner.set_beyond(Some(beyond));
     }
 
     /// Hands the planner the stretches given up and still held, in the robot frame; drops the

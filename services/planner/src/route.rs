@@ -24,6 +24,10 @@ use mimnav_shared::topics::cell_class;
 
 use crate::clearance::chamfer;
 
+/// What a border cell from which the remembered lattice knows no way to the goal starts with
+/// beyond its straight-line distance, m.
+const NO_WAY_M: f32 = 100.0;
+
 /// (Δrow, Δcol) of the 16 moves.
 const MOVES: [(i32, i32); 16] = [
     (1, 0),
@@ -94,6 +98,11 @@ pub struct Route {
     /// The goal is on the map and the robot has no way to it there: the lengths lead off the
     /// map (see [`Route::beyond`]).
     beyond: bool,
+    /// Lengths to the goal beyond the map from what the robot remembers
+    /// ([`Route::set_beyond`]); the border starts from them for their goal.
+    remembered: Option<crate::memory::Beyond>,
+    /// The last border seeding used `remembered`.
+    remembered_used: bool,
 }
 
 impl Default for Route {
@@ -123,6 +132,8 @@ impl Default for Route {
             allowed: Vec::new(),
             given_up: Vec::new(),
             beyond: false,
+            remembered: None,
+            remembered_used: false,
         }
     }
 }
@@ -175,12 +186,25 @@ impl Route {
         self.given_up.extend(discs);
     }
 
+    /// Sets the lengths to the goal beyond the map ([`crate::memory::Memory::beyond`]) for the
+    /// next [`Route::build`]s to that goal: the border cells start from them (the way round
+    /// what the robot mapped before and has left behind) instead of from their straight-line
+    /// distance (the world beyond the map assumed open). `None`: the straight line.
+    pub fn set_beyond(&mut self, beyond: Option<&crate::memory::Beyond>) {
+        match (beyond, &mut self.remembered) {
+            (Some(b), Some(mine)) => mine.clone_from(b),
+            (b, mine) => *mine = b.cloned(),
+        }
+    }
+
     /// The goal is on the map but the map holds no way to it from the robot, and the lengths
     /// lead off the map instead, through its border (assumed open beyond, as for a goal beyond
     /// the map): a way round may lie outside the local map (a partition's opening behind the
     /// robot). The planner drives it as it drives without a route — slowly, keeping its whole
     /// margin, and stopping `blocked` after `planner.no_route_stop_s` — but towards what it has
-    /// not seen rather than into what holds it.
+    /// not seen rather than into what holds it. Not when the way off the map is one the
+    /// memory knows ([`Route::set_beyond`]): round what the robot mapped before, that is a
+    /// route.
     pub fn beyond(&self) -> bool {
         self.beyond
     }
@@ -210,6 +234,7 @@ impl Route {
         self.dist.resize(m, f32::INFINITY);
         self.seeded.clear();
         self.beyond = false;
+        self.remembered_used = false;
         let n = grid.cells;
         if classes.len() < grid.len() || cost.len() < grid.len() {
             return;
@@ -394,7 +419,10 @@ impl Route {
             self.seed_goal(goal, true);
             self.wanted.fill(false);
             self.search(w, 0);
-            self.beyond = self.value(0.0, 0.0).is_finite();
+            // a way round that the memory knows (the border left through had a remembered
+            // length, not the straight line plus `NO_WAY_M`) is a route, not a guess
+            let v = self.value(0.0, 0.0);
+            self.beyond = v.is_finite() && !(self.remembered_used && v < NO_WAY_M);
         }
     }
 
@@ -420,16 +448,28 @@ impl Route {
         inside
     }
 
-    /// Seeds every border cell with its straight-line distance to the goal: the world beyond
-    /// the map is assumed open.
+    /// Seeds every border cell with its length to the goal: the remembered one
+    /// ([`Route::set_beyond`]) where it is known, else the straight-line distance (the world
+    /// beyond the map assumed open) — and where the memory knows of no way at all, that and
+    /// [`NO_WAY_M`] more, so the border the memory leads through is always shorter.
     fn seed_border(&mut self, goal: (f32, f32)) {
         let (cs, cells) = (self.coarse, self.coarse.cells);
+        let kept = self.remembered.take();
+        let remembered =
+            (kept.as_ref()).filter(|b| (b.goal.0 - goal.0).hypot(b.goal.1 - goal.1) < 1e-3);
         for k in 0..cells {
             for (r, c) in [(0, k), (cells - 1, k), (k, 0), (k, cells - 1)] {
                 let (x, y) = cs.center_of(r, c);
-                self.seed(r * cells + c, (goal.0 - x).hypot(goal.1 - y));
+                let straight = (goal.0 - x).hypot(goal.1 - y);
+                let d = match remembered {
+                    Some(b) => b.length(x, y).unwrap_or(straight + NO_WAY_M),
+                    None => straight,
+                };
+                self.seed(r * cells + c, d);
             }
         }
+        self.remembered_used = remembered.is_some();
+        self.remembered = kept;
     }
 
     /// Dijkstra's search from the seeded cells with a bucket queue (Dial's): every move costs at

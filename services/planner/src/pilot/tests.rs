@@ -452,6 +452,8 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
         .collect();
     let mut params = PlannerParams::default();
     params.planner.no_route_stop_s = 2.0;
+    // nothing remembered beyond the map (with the memory, see the next test)
+    params.planner.route_memory_m = 0.0;
     let t = 10 * S;
     let mut p = driving(params.clone(), t);
     let at = |p: &mut Pilot, dt: u64| {
@@ -480,6 +482,35 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     let open = at(&mut p, 2100 * MS);
     assert_eq!(open.status, command_status::DRIVING, "{open:?}");
     assert_eq!(open.flags & command_flags::NO_ROUTE, 0, "{open:?}");
+}
+
+/// Issue 22, stop 65: with the route's memory (`planner.route_memory_m`) the wall across the map
+/// is remembered where the map showed it, and the way round its remembered end is a route: the
+/// robot drives it as any route off the map, without the `no route` flag and its stop.
+#[test]
+fn a_way_round_a_remembered_wall_is_a_route() {
+    let walled: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (x, _) = grid().center_of(i / grid().cells, i % grid().cells);
+            if (x - 1.5).abs() < 0.06 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        })
+        .collect();
+    let mut params = PlannerParams::default();
+    params.planner.no_route_stop_s = 2.0;
+    assert!(params.planner.route_memory_m > 0.0, "on by default");
+    let t = 10 * S;
+    let mut p = driving(params.clone(), t);
+    for dt in [0, 1000 * MS, 2500 * MS] {
+        p.odom(&odom(t + dt)).expect("good odometry");
+        let d = p.on_map(&header(dt / (100 * MS)), walled.iter().copied(), t + dt);
+        assert_eq!(d.status, command_status::DRIVING, "{d:?}");
+        assert_eq!(d.flags & command_flags::NO_ROUTE, 0, "{d:?}");
+        assert!(!p.planner().route().beyond());
+    }
 }
 
 /// Issue 22: Spot walked along a storefront converging on its path until the dynamic window
