@@ -228,9 +228,16 @@ fn breakdown(config: &Config, maps: &[Case]) {
         let s = Instant::now();
         let pose = mimnav_shared::pose::pose2(0.1 * k as f64, 0.0, 0.0);
         let now = k as u64 * 100_000_000;
-        memory.update(&pose, classes, grid, now, memory_ns, memory_m);
-        let fixed = pose.to_fixed(goal.0, goal.1);
-        let local = (goal.0 as f32, goal.1 as f32);
+        // (as the pilot: a map taken in every `UPDATE_EVERY_NS`)
+        if now % mimnav_planner::memory::UPDATE_EVERY_NS < 100_000_000 {
+            memory.update(&pose, classes, grid, now, memory_ns, memory_m);
+        }
+        // a goal fixed in the odometry frame, 12 m on from where the drive starts, as the
+        // pilot's: the lengths are searched again once a second or a metre, a search spread
+        // over a few maps
+        let fixed = (12.0, 0.0);
+        let local = pose.to_local(fixed.0, fixed.1);
+        let local = (local.0 as f32, local.1 as f32);
         let beyond = memory.beyond(
             &pose,
             fixed,
@@ -238,8 +245,9 @@ fn breakdown(config: &Config, maps: &[Case]) {
             now,
             memory_m,
             p.route_suspect_weight as f32,
+            mimnav_planner::memory::SEARCH_CELLS_PER_MAP,
         );
-        route.set_beyond(Some(beyond));
+        route.set_beyond(beyond);
         all[4].push(s.elapsed().as_secs_f64());
         t[4] += s.elapsed().as_secs_f64();
         let s = Instant::now();

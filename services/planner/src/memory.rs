@@ -18,6 +18,7 @@
 
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext};
@@ -28,9 +29,15 @@ use mimnav_shared::topics::cell_class;
 pub const CELL_M: f64 = 0.5;
 /// The lengths are searched again when the robot has moved this far since the last search, m
 /// (or the goal moved, or [`FIELD_EVERY_NS`] passed).
-const FIELD_MOVE_M: f64 = 1.0;
+const FIELD_MOVE_M: f64 = 2.0;
 /// ... or this long after the last search, ns.
-const FIELD_EVERY_NS: u64 = 1_000_000_000;
+const FIELD_EVERY_NS: u64 = 2_000_000_000;
+/// The pilot takes a map into the memory at most this often, ns: what it records matters once it
+/// has left the map, and reading a whole map costs a fifth of a plan.
+pub const UPDATE_EVERY_NS: u64 = 300_000_000;
+/// The lattice cells a search settles per map ([`Memory::beyond`]'s `budget` in the pilot): a
+/// field of 15 m is 3721 cells, searched over about ten maps (a second at 10 Hz).
+pub const SEARCH_CELLS_PER_MAP: usize = 400;
 
 /// The 16 moves on the lattice (straight, diagonal and knight moves, so lengths are within 3 %
 /// of the straight line's, as the route's are).
@@ -64,6 +71,36 @@ fn beside((dr, dc): (i32, i32)) -> [(i32, i32); 2] {
     }
 }
 
+/// A hasher for lattice indices (multiply and rotate, as rustc's own `FxHasher`): the default
+/// SipHash costs more than the rest of a map's update.
+#[derive(Debug, Clone, Copy, Default)]
+struct LatticeHasher(u64);
+
+impl LatticeHasher {
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7cc1_b727_220a_95);
+    }
+}
+
+impl Hasher for LatticeHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.add(u64::from(b));
+        }
+    }
+
+    fn write_i32(&mut self, i: i32) {
+        self.add(u64::from(i as u32));
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// The remembered lattice cells.
+type Lattice = HashMap<(i32, i32), Kept, BuildHasherDefault<LatticeHasher>>;
+
 /// What a remembered cell held.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Kept {
@@ -91,6 +128,8 @@ pub struct Beyond {
     kinds: Vec<u8>,
     /// The goal, odometry frame.
     goal_odom: (f64, f64),
+    /// A search has filled these lengths.
+    ready: bool,
 }
 
 impl Beyond {
@@ -136,13 +175,15 @@ impl Beyond {
 /// frame.
 #[derive(Debug, Clone, Default)]
 pub struct Memory {
-    cells: HashMap<(i32, i32), Kept>,
-    /// The last search.
+    cells: Lattice,
+    /// When the last search began.
     last: Option<Searched>,
+    /// The lengths of the last search done.
     field: Beyond,
-    /// Scratch of the search: what each cell holds (see [`Beyond`]'s `kinds`).
-    open: Vec<u8>,
-    heap: BinaryHeap<Entry>,
+    /// The search under way.
+    search: Option<Search>,
+    /// A finished search's buffers, for the next.
+    spare: Option<Search>,
 }
 
 /// What the last search was for.
@@ -199,22 +240,42 @@ impl Memory {
             return;
         }
         let n = grid.cells;
-        for (i, &class) in classes.iter().enumerate() {
-            let closed = match class {
-                cell_class::SOLID | cell_class::GLASS => true,
-                cell_class::SUSPECTED_GLASS => false,
-                _ => continue,
-            };
-            let (x, y) = grid.center_of(i / n, i % n);
-            let (ox, oy) = pose.to_fixed(f64::from(x), f64::from(y));
-            let e = self.cells.entry(key(ox, oy)).or_insert(Kept {
-                closed,
-                seen_ns: now,
-            });
-            // within one map a lattice cell takes the worst of its map cells
-            e.closed = (e.seen_ns == now && e.closed) || closed;
-            e.seen_ns = now;
+        let (sin, cos) = pose.yaw().sin_cos();
+        let (px, py) = (pose.x(), pose.y());
+        // a map row's cells fall on a lattice cell ten at a time: each lattice cell is looked up
+        // once for its run
+        let mut run: Option<((i32, i32), bool)> = None;
+        let cells = &mut self.cells;
+        let mut flush = |run: Option<((i32, i32), bool)>| {
+            if let Some((k, closed)) = run {
+                let e = cells.entry(k).or_insert(Kept {
+                    closed,
+                    seen_ns: now,
+                });
+                // within one map a lattice cell takes the worst of its map cells
+                e.closed = (e.seen_ns == now && e.closed) || closed;
+                e.seen_ns = now;
+            }
+        };
+        for (r, row) in classes.chunks_exact(n).enumerate() {
+            let (x, _) = grid.center_of(r, 0);
+            let x = f64::from(x);
+            for (c, &class) in row.iter().enumerate() {
+                let closed = match class {
+                    cell_class::SOLID | cell_class::GLASS => true,
+                    cell_class::SUSPECTED_GLASS => false,
+                    _ => continue,
+                };
+                let (_, y) = grid.center_of(r, c);
+                let y = f64::from(y);
+                let k = key(px + cos * x - sin * y, py + sin * x + cos * y);
+                match &mut run {
+                    Some((at, worst)) if *at == k => *worst |= closed,
+                    _ => flush(run.replace((k, closed))),
+                }
+            }
         }
+        flush(run);
         // a lattice cell wholly inside the map is what this map says
         let inner = f64::from(grid.half_extent_m()) - CELL_M * std::f64::consts::SQRT_2;
         let (rx, ry) = (pose.x(), pose.y());
@@ -230,9 +291,17 @@ impl Memory {
     }
 
     /// The lengths to `goal` (odometry frame; `goal_local` the same in the robot frame) over
-    /// the remembered lattice within `radius_m` of the robot at `pose`, searched again when the
-    /// robot or the goal moved or a second passed since the last search. `suspect_weight`:
-    /// what a metre through suspected glass costs more (0: closed, as the route does).
+    /// the remembered lattice within `radius_m` of the robot at `pose`; `None` while none are
+    /// known for this goal (the route's border then starts from the straight line).
+    /// `suspect_weight`: what a metre through suspected glass costs more (0: closed, as the
+    /// route does).
+    ///
+    /// The lengths are searched again once the robot moved [`FIELD_MOVE_M`], or
+    /// [`FIELD_EVERY_NS`] passed, or the goal moved, since the last search began; a search
+    /// settles at most `budget` lattice cells a call and goes on at the next (a few thousand
+    /// cells in all: a whole search at once would be a plan's time every second), and the
+    /// lengths it replaces serve until it is done.
+    #[allow(clippy::too_many_arguments)]
     pub fn beyond(
         &mut self,
         pose: &Pose2,
@@ -241,16 +310,23 @@ impl Memory {
         now: u64,
         radius_m: f64,
         suspect_weight: f32,
-    ) -> &Beyond {
+        budget: usize,
+    ) -> Option<&Beyond> {
         let here = (pose.x(), pose.y());
-        let fresh = self.last.is_some_and(|l| {
-            (l.at.0 - here.0).hypot(l.at.1 - here.1) < FIELD_MOVE_M
-                && (l.goal.0 - goal.0).hypot(l.goal.1 - goal.1) < 1e-6
-                && now.saturating_sub(l.ns) < FIELD_EVERY_NS
-                && l.weight == suspect_weight
+        let same_goal = |g: (f64, f64)| (g.0 - goal.0).hypot(g.1 - goal.1) < 1e-6;
+        let due = self.last.is_none_or(|l| {
+            (l.at.0 - here.0).hypot(l.at.1 - here.1) >= FIELD_MOVE_M
+                || !same_goal(l.goal)
+                || now.saturating_sub(l.ns) >= FIELD_EVERY_NS
+                || l.weight != suspect_weight
         });
-        if !fresh {
-            self.search(here, goal, radius_m, suspect_weight);
+        // a search under way for this goal finishes first
+        let busy = self
+            .search
+            .as_ref()
+            .is_some_and(|s| same_goal(s.goal) && s.weight == suspect_weight);
+        if due && !busy {
+            self.start(here, goal, radius_m, suspect_weight);
             self.last = Some(Searched {
                 at: here,
                 goal,
@@ -258,61 +334,108 @@ impl Memory {
                 weight: suspect_weight,
             });
         }
-        self.field.goal = goal_local;
-        self.field.pose = (pose.x(), pose.y(), pose.yaw());
-        &self.field
+        if let Some(search) = &mut self.search
+            && search.run(budget)
+        {
+            let f = &mut self.field;
+            f.origin = search.origin;
+            f.cells = search.cells;
+            std::mem::swap(&mut f.lengths, &mut search.lengths);
+            std::mem::swap(&mut f.kinds, &mut search.open);
+            f.goal_odom = search.goal;
+            f.ready = true;
+            self.spare = self.search.take();
+        }
+        let f = &mut self.field;
+        if !(f.ready && same_goal(f.goal_odom)) {
+            return None;
+        }
+        f.goal = goal_local;
+        f.pose = (pose.x(), pose.y(), pose.yaw());
+        Some(&self.field)
     }
 
-    /// Dijkstra's search from the goal (its cell, if on the field; else every border cell with
+    /// Begins a search from the goal (its cell, if on the field; else every border cell with
     /// its straight-line distance) over the field around `here`.
-    fn search(&mut self, here: (f64, f64), goal: (f64, f64), radius_m: f64, suspect_weight: f32) {
+    fn start(&mut self, here: (f64, f64), goal: (f64, f64), radius_m: f64, suspect_weight: f32) {
         let half = (radius_m / CELL_M).ceil().clamp(1.0, 400.0) as i32;
         let (ci, cj) = key(here.0, here.1);
         let origin = (ci - half, cj - half);
         let cells = (2 * half + 1) as usize;
         let m = cells * cells;
+        let mut s = self.spare.take().unwrap_or_default();
+        s.origin = origin;
+        s.cells = cells;
+        s.goal = goal;
+        s.weight = suspect_weight;
         // 0 open, 1 suspected, 2 closed
-        self.open.clear();
-        self.open.resize(m, 0);
+        s.open.clear();
+        s.open.resize(m, 0);
         for (&(i, j), k) in &self.cells {
             let (r, c) = (i - origin.0, j - origin.1);
             if (0..cells as i32).contains(&r) && (0..cells as i32).contains(&c) {
                 let closed = k.closed || suspect_weight <= 0.0;
-                self.open[r as usize * cells + c as usize] = if closed { 2 } else { 1 };
+                s.open[r as usize * cells + c as usize] = if closed { 2 } else { 1 };
             }
         }
-        let f = &mut self.field;
-        f.origin = origin;
-        f.cells = cells;
-        f.lengths.clear();
-        f.lengths.resize(m, f32::INFINITY);
-        self.heap.clear();
+        s.lengths.clear();
+        s.lengths.resize(m, f32::INFINITY);
+        s.heap.clear();
         let (gi, gj) = key(goal.0, goal.1);
         let (gr, gc) = (gi - origin.0, gj - origin.1);
-        let seed = |r: i32, c: i32, lengths: &mut Vec<f32>, heap: &mut BinaryHeap<Entry>| {
-            let k = r as usize * cells + c as usize;
-            let (x, y) = centre(r + origin.0, c + origin.1);
-            let d = (goal.0 - x).hypot(goal.1 - y) as f32;
-            if d < lengths[k] {
-                lengths[k] = d;
-                heap.push(Entry(d, k));
-            }
-        };
         let n = cells as i32;
         if (0..n).contains(&gr) && (0..n).contains(&gc) {
-            seed(gr, gc, &mut f.lengths, &mut self.heap);
+            s.seed(gr, gc);
         } else {
             for k in 0..n {
                 for (r, c) in [(0, k), (n - 1, k), (k, 0), (k, n - 1)] {
-                    if self.open[r as usize * cells + c as usize] != 2 {
-                        seed(r, c, &mut f.lengths, &mut self.heap);
+                    if s.open[r as usize * cells + c as usize] != 2 {
+                        s.seed(r, c);
                     }
                 }
             }
         }
+        self.search = Some(s);
+    }
+}
+
+/// A search of the lengths to the goal under way (Dijkstra's, over [`MOVES`]).
+#[derive(Debug, Clone, Default)]
+struct Search {
+    /// Lattice index of the field's first cell.
+    origin: (i32, i32),
+    /// Cells per side.
+    cells: usize,
+    /// The goal, odometry frame.
+    goal: (f64, f64),
+    /// The suspected glass's weight.
+    weight: f32,
+    /// What each cell holds: 0 nothing remembered, 1 suspected glass, 2 closed.
+    open: Vec<u8>,
+    /// The lengths so far.
+    lengths: Vec<f32>,
+    heap: BinaryHeap<Entry>,
+}
+
+impl Search {
+    /// Starts the search at cell (r, c) with its centre's straight-line distance to the goal.
+    fn seed(&mut self, r: i32, c: i32) {
+        let k = r as usize * self.cells + c as usize;
+        let (x, y) = centre(r + self.origin.0, c + self.origin.1);
+        let d = (self.goal.0 - x).hypot(self.goal.1 - y) as f32;
+        if d < self.lengths[k] {
+            self.lengths[k] = d;
+            self.heap.push(Entry(d, k));
+        }
+    }
+
+    /// Settles up to `budget` cells; whether the search is done.
+    fn run(&mut self, budget: usize) -> bool {
+        let (cells, n) = (self.cells, self.cells as i32);
         let step = CELL_M as f32;
+        let mut settled = 0usize;
         while let Some(Entry(d, k)) = self.heap.pop() {
-            if d > f.lengths[k] {
+            if d > self.lengths[k] {
                 continue;
             }
             let (r, c) = ((k / cells) as i32, (k % cells) as i32);
@@ -331,16 +454,19 @@ impl Memory {
                     continue;
                 }
                 let len = step * ((dr * dr + dc * dc) as f32).sqrt();
-                let extra = if kind == 1 { suspect_weight } else { 0.0 };
+                let extra = if kind == 1 { self.weight } else { 0.0 };
                 let nd = d + len * (1.0 + extra);
-                if nd < f.lengths[to] {
-                    f.lengths[to] = nd;
+                if nd < self.lengths[to] {
+                    self.lengths[to] = nd;
                     self.heap.push(Entry(nd, to));
                 }
             }
+            settled += 1;
+            if settled >= budget {
+                return self.heap.is_empty();
+            }
         }
-        f.kinds.clone_from(&self.open);
-        f.goal_odom = goal;
+        true
     }
 }
 
@@ -410,7 +536,9 @@ mod tests {
         let goal = (4.0, 0.0);
         let local = far.to_local(goal.0, goal.1);
         let local = (local.0 as f32, local.1 as f32);
-        let b = mem.beyond(&far, goal, local, 3, 30.0, 10.0).clone();
+        let b = (mem.beyond(&far, goal, local, 3, 30.0, 10.0, usize::MAX))
+            .expect("searched")
+            .clone();
         let len = b.length(0.0, -10.0).expect("a way");
         let straight = 4.0f32.hypot(15.0);
         // (round the lattice's cells at the wall's end: up to a few metres more)
@@ -423,8 +551,8 @@ mod tests {
         // nothing remembered: the straight line
         let mut none = Memory::default();
         let len = none
-            .beyond(&far, goal, local, 3, 30.0, 10.0)
-            .length(0.0, -10.0);
+            .beyond(&far, goal, local, 3, 30.0, 10.0, usize::MAX)
+            .and_then(|b| b.length(0.0, -10.0));
         let len = len.expect("a way");
         assert!((len - straight).abs() < 0.5, "{len} against {straight}");
         // off the field: nothing known
@@ -467,12 +595,12 @@ mod tests {
         mem.update(&p, &line, g, 1, u64::MAX, 30.0);
         let goal = (6.0, 0.0);
         let closed = mem
-            .beyond(&p, goal, (6.0, 0.0), 1, 8.0, 0.0)
-            .length(1.0, 0.0);
+            .beyond(&p, goal, (6.0, 0.0), 1, 8.0, 0.0, usize::MAX)
+            .and_then(|b| b.length(1.0, 0.0));
         assert_eq!(closed, None, "no way round a closed line");
         let crossed = mem
-            .beyond(&p, goal, (6.0, 0.0), 2, 8.0, 10.0)
-            .length(1.0, 0.0);
+            .beyond(&p, goal, (6.0, 0.0), 2, 8.0, 10.0, usize::MAX)
+            .and_then(|b| b.length(1.0, 0.0));
         let crossed = crossed.expect("crossed at a cost");
         // 5 m and half a metre through it at 10 more a metre
         assert!((9.0..12.0).contains(&crossed), "{crossed}");
@@ -483,14 +611,50 @@ mod tests {
         let both: Vec<u8> = (both.iter().zip(&line))
             .map(|(&a, &b)| if a == cell_class::SOLID { a } else { b })
             .collect();
-        // (searched again a second later)
-        mem.update(&p, &both, g, 2_000_000_000, u64::MAX, 30.0);
+        // (searched again seconds later)
+        mem.update(&p, &both, g, 5_000_000_000, u64::MAX, 30.0);
         let round = mem
-            .beyond(&p, goal, (6.0, 0.0), 2_000_000_000, 8.0, 10.0)
-            .length(1.0, 0.0);
+            .beyond(&p, goal, (6.0, 0.0), 5_000_000_000, 8.0, 10.0, usize::MAX)
+            .and_then(|b| b.length(1.0, 0.0));
         assert!(
             round.expect("round") > crossed,
             "{round:?} against {crossed}"
         );
+    }
+
+    #[test]
+    fn a_search_spread_over_maps_gives_the_lengths_of_one_at_once() {
+        let g = grid(400);
+        let wall = map(g, cell_class::GLASS, |x, y| {
+            (1.95..2.05).contains(&x) && y > -3.0
+        });
+        let p = pose2(0.0, 0.0, 0.0);
+        let goal = (6.0, 0.0);
+        let mut once = Memory::default();
+        once.update(&p, &wall, g, 1, u64::MAX, 30.0);
+        let whole = (once.beyond(&p, goal, (6.0, 0.0), 1, 15.0, 10.0, usize::MAX))
+            .expect("searched at once")
+            .clone();
+        let mut spread = Memory::default();
+        spread.update(&p, &wall, g, 1, u64::MAX, 30.0);
+        let mut calls = 1;
+        while spread
+            .beyond(
+                &p,
+                goal,
+                (6.0, 0.0),
+                1 + calls,
+                15.0,
+                10.0,
+                SEARCH_CELLS_PER_MAP,
+            )
+            .is_none()
+        {
+            calls += 1;
+            assert!(calls < 50, "never done");
+        }
+        assert!((4..20).contains(&calls), "{calls} maps");
+        let spread = spread.beyond(&p, goal, (6.0, 0.0), 2, 15.0, 10.0, 0);
+        assert_eq!(spread, Some(&whole));
     }
 }

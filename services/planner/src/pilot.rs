@@ -193,6 +193,8 @@ pub struct Pilot {
     look: Look,
     /// The solids and glass of past maps, for the route beyond the map.
     memory: crate::memory::Memory,
+    /// When a map was last taken into `memory`.
+    memory_ns: Option<u64>,
     /// Squeezing through: see [`Tight`].
     tight: Tight,
     /// Suspected glass given up: see [`GiveUp`].
@@ -367,6 +369,7 @@ impl Pilot {
             back_out: BackOut::default(),
             look: Look::default(),
             memory: crate::memory::Memory::default(),
+            memory_ns: None,
             tight: Tight::default(),
             given_up: GiveUp::default(),
         }
@@ -698,10 +701,17 @@ impl Pilot {
             return;
         }
         let m = &mut self.memory;
-        m.update(pose, &self.classes, grid, now, keep_ns, radius_m);
+        if self
+            .memory_ns
+            .is_none_or(|t| now.saturating_sub(t) >= crate::memory::UPDATE_EVERY_NS)
+        {
+            m.update(pose, &self.classes, grid, now, keep_ns, radius_m);
+            self.memory_ns = Some(now);
+        }
         let local = (local.0 as f32, local.1 as f32);
-        let beyond = m.beyond(pose, goal, local, now, radius_m, suspect_weight);
-        self.planner.set_beyond(Some(beyond));
+        let budget = crate::memory::SEARCH_CELLS_PER_MAP;
+        let beyond = m.beyond(pose, goal, local, now, radius_m, suspect_weight, budget);
+        self.planner.set_beyond(beyond);
     }
 
     /// Hands the planner the stretches given up and still held, in the robot frame; drops the

@@ -485,8 +485,9 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
 }
 
 /// Issue 22, stop 65: with the route's memory (`planner.route_memory_m`) the wall across the map
-/// is remembered where the map showed it, and the way round its remembered end is a route: the
-/// robot drives it as any route off the map, without the `no route` flag and its stop.
+/// is remembered where the map showed it, and the way round its remembered end is a route: once
+/// the remembered lengths are searched, the robot drives it as any route off the map, without
+/// the `no route` flag and its stop.
 #[test]
 fn a_way_round_a_remembered_wall_is_a_route() {
     let walled: Vec<u8> = (0..grid().len())
@@ -504,13 +505,26 @@ fn a_way_round_a_remembered_wall_is_a_route() {
     assert!(params.planner.route_memory_m > 0.0, "on by default");
     let t = 10 * S;
     let mut p = driving(params.clone(), t);
-    for dt in [0, 1000 * MS, 2500 * MS] {
+    let mut decisions = Vec::new();
+    for k in 0..30u64 {
+        let dt = k * 100 * MS;
         p.odom(&odom(t + dt)).expect("good odometry");
-        let d = p.on_map(&header(dt / (100 * MS)), walled.iter().copied(), t + dt);
+        decisions.push(p.on_map(&header(k), walled.iter().copied(), t + dt));
+    }
+    // the first maps, before the remembered lengths are searched (a search is spread over a
+    // few maps): no route yet
+    assert_ne!(
+        decisions[0].flags & command_flags::NO_ROUTE,
+        0,
+        "{:?}",
+        decisions[0]
+    );
+    // a second on, and past `no_route_stop_s`: a route, driven
+    for d in &decisions[10..] {
         assert_eq!(d.status, command_status::DRIVING, "{d:?}");
         assert_eq!(d.flags & command_flags::NO_ROUTE, 0, "{d:?}");
-        assert!(!p.planner().route().beyond());
     }
+    assert!(!p.planner().route().beyond());
 }
 
 /// Issue 22: Spot walked along a storefront converging on its path until the dynamic window
