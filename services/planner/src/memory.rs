@@ -24,6 +24,10 @@ use mimnav_shared::grid::GridSpec;
 use mimnav_shared::pose::{Pose2, Pose2Ext};
 use mimnav_shared::topics::cell_class;
 
+// the route's 16 moves (straight, diagonal and knight moves: lengths within 3 % of the straight
+// line's)
+use crate::route::MOVES;
+
 /// The remembered lattice's cell, m: coarser than the route's (a wall is a line of cells, and
 /// the search over a few thousand of them takes well under a millisecond).
 pub const CELL_M: f64 = 0.5;
@@ -38,27 +42,6 @@ pub const UPDATE_EVERY_NS: u64 = 300_000_000;
 /// The lattice cells a search settles per map ([`Memory::beyond`]'s `budget` in the pilot): a
 /// field of 15 m is 3721 cells, searched over about ten maps (a second at 10 Hz).
 pub const SEARCH_CELLS_PER_MAP: usize = 400;
-
-/// The 16 moves on the lattice (straight, diagonal and knight moves, so lengths are within 3 %
-/// of the straight line's, as the route's are).
-const MOVES: [(i32, i32); 16] = [
-    (1, 0),
-    (-1, 0),
-    (0, 1),
-    (0, -1),
-    (1, 1),
-    (1, -1),
-    (-1, 1),
-    (-1, -1),
-    (2, 1),
-    (2, -1),
-    (-2, 1),
-    (-2, -1),
-    (1, 2),
-    (1, -2),
-    (-1, 2),
-    (-1, -2),
-];
 
 /// The two cells a move passes beside (a straight move: its target twice), which must not be
 /// closed: no move slips between two closed cells touching at a corner.
@@ -78,7 +61,7 @@ struct LatticeHasher(u64);
 
 impl LatticeHasher {
     fn add(&mut self, word: u64) {
-        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7cc1_b727_220a_95);
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x517c_c1b7_2722_0a95);
     }
 }
 

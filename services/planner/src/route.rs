@@ -29,7 +29,7 @@ use crate::clearance::chamfer;
 const NO_WAY_M: f32 = 100.0;
 
 /// (Δrow, Δcol) of the 16 moves.
-const MOVES: [(i32, i32); 16] = [
+pub(crate) const MOVES: [(i32, i32); 16] = [
     (1, 0),
     (-1, 0),
     (0, 1),

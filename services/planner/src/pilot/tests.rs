@@ -437,10 +437,9 @@ fn every_decision_describes_itself() {
     );
 }
 
-#[test]
-fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
-    // a wall across the map 1.5 m ahead, the goal 3 m ahead behind it: no route
-    let walled: Vec<u8> = (0..grid().len())
+/// A solid wall across the whole map 1.5 m ahead.
+fn wall_across_ahead() -> Vec<u8> {
+    (0..grid().len())
         .map(|i| {
             let (x, _) = grid().center_of(i / grid().cells, i % grid().cells);
             if (x - 1.5).abs() < 0.06 {
@@ -449,7 +448,13 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
                 cell_class::FREE
             }
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
+    // a wall across the map 1.5 m ahead, the goal 3 m ahead behind it: no route
+    let walled = wall_across_ahead();
     let mut params = PlannerParams::default();
     params.planner.no_route_stop_s = 2.0;
     // nothing remembered beyond the map (with the memory, see the next test)
@@ -490,16 +495,7 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
 /// the `no route` flag and its stop.
 #[test]
 fn a_way_round_a_remembered_wall_is_a_route() {
-    let walled: Vec<u8> = (0..grid().len())
-        .map(|i| {
-            let (x, _) = grid().center_of(i / grid().cells, i % grid().cells);
-            if (x - 1.5).abs() < 0.06 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        })
-        .collect();
+    let walled = wall_across_ahead();
     let mut params = PlannerParams::default();
     params.planner.no_route_stop_s = 2.0;
     assert!(params.planner.route_memory_m > 0.0, "on by default");
