@@ -5,7 +5,9 @@
 //! glass partition to its far end, where the goal lies behind the glass, turns back towards the
 //! opening; a few metres on the pane at the goal's end leaves the map, the straight line to the
 //! goal looks open again and the robot turns round — back and forth until its time runs out
-//! (seven of the Turtlebot 2's eight timeouts on the tuning partitions, stop 65).
+//! (three of the Turtlebot 2's six timeouts on the tuning partitions of seed 300, traced at
+//! stop 65). The way off the map stays a guess through what was never seen (the route's
+//! `beyond`): the memory only turns it away from what the robot has seen closed.
 //!
 //! [`Memory`] keeps the solid and glass cells of every map the planner was given (and the
 //! suspected glass), in the odometry frame on a coarse lattice, for `planner.route_memory_s`

@@ -101,8 +101,6 @@ pub struct Route {
     /// Lengths to the goal beyond the map from what the robot remembers
     /// ([`Route::set_beyond`]); the border starts from them for their goal.
     remembered: Option<crate::memory::Beyond>,
-    /// The last border seeding used `remembered`.
-    remembered_used: bool,
 }
 
 impl Default for Route {
@@ -133,7 +131,6 @@ impl Default for Route {
             given_up: Vec::new(),
             beyond: false,
             remembered: None,
-            remembered_used: false,
         }
     }
 }
@@ -202,9 +199,8 @@ impl Route {
     /// the map): a way round may lie outside the local map (a partition's opening behind the
     /// robot). The planner drives it as it drives without a route — slowly, keeping its whole
     /// margin, and stopping `blocked` after `planner.no_route_stop_s` — but towards what it has
-    /// not seen rather than into what holds it. Not when the way off the map is one the
-    /// memory knows ([`Route::set_beyond`]): round what the robot mapped before, that is a
-    /// route.
+    /// not seen rather than into what holds it — round what it remembers of the world beyond
+    /// the map ([`Route::set_beyond`]).
     pub fn beyond(&self) -> bool {
         self.beyond
     }
@@ -234,7 +230,6 @@ impl Route {
         self.dist.resize(m, f32::INFINITY);
         self.seeded.clear();
         self.beyond = false;
-        self.remembered_used = false;
         let n = grid.cells;
         if classes.len() < grid.len() || cost.len() < grid.len() {
             return;
@@ -419,10 +414,7 @@ impl Route {
             self.seed_goal(goal, true);
             self.wanted.fill(false);
             self.search(w, 0);
-            // a way round that the memory knows (the border left through had a remembered
-            // length, not the straight line plus `NO_WAY_M`) is a route, not a guess
-            let v = self.value(0.0, 0.0);
-            self.beyond = v.is_finite() && !(self.remembered_used && v < NO_WAY_M);
+            self.beyond = self.value(0.0, 0.0).is_finite();
         }
     }
 
@@ -468,7 +460,6 @@ impl Route {
                 self.seed(r * cells + c, d);
             }
         }
-        self.remembered_used = remembered.is_some();
         self.remembered = kept;
     }
 

@@ -457,8 +457,6 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     let walled = wall_across_ahead();
     let mut params = PlannerParams::default();
     params.planner.no_route_stop_s = 2.0;
-    // nothing remembered beyond the map (with the memory, see the next test)
-    params.planner.route_memory_m = 0.0;
     let t = 10 * S;
     let mut p = driving(params.clone(), t);
     let at = |p: &mut Pilot, dt: u64| {
@@ -489,38 +487,45 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     assert_eq!(open.flags & command_flags::NO_ROUTE, 0, "{open:?}");
 }
 
-/// Issue 22, stop 65: with the route's memory (`planner.route_memory_m`) the wall across the map
-/// is remembered where the map showed it, and the way round its remembered end is a route: once
-/// the remembered lengths are searched, the robot drives it as any route off the map, without
-/// the `no route` flag and its stop.
+/// Issue 22, stop 65: the route remembers what the robot left behind (`planner.route_memory_m`).
+/// A wall seen across the way 1 m ahead, then the robot 9 m on the other way, the wall off its
+/// map and the goal beyond it: without the memory the route leads straight off the map towards
+/// the goal, with it round the remembered wall's ends.
 #[test]
-fn a_way_round_a_remembered_wall_is_a_route() {
-    let walled = wall_across_ahead();
-    let mut params = PlannerParams::default();
-    params.planner.no_route_stop_s = 2.0;
-    assert!(params.planner.route_memory_m > 0.0, "on by default");
-    let t = 10 * S;
-    let mut p = driving(params.clone(), t);
-    let mut decisions = Vec::new();
-    for k in 0..30u64 {
-        let dt = k * 100 * MS;
-        p.odom(&odom(t + dt)).expect("good odometry");
-        decisions.push(p.on_map(&header(k), walled.iter().copied(), t + dt));
-    }
-    // the first maps, before the remembered lengths are searched (a search is spread over a
-    // few maps): no route yet
-    assert_ne!(
-        decisions[0].flags & command_flags::NO_ROUTE,
-        0,
-        "{:?}",
-        decisions[0]
-    );
-    // a second on, and past `no_route_stop_s`: a route, driven
-    for d in &decisions[10..] {
-        assert_eq!(d.status, command_status::DRIVING, "{d:?}");
-        assert_eq!(d.flags & command_flags::NO_ROUTE, 0, "{d:?}");
-    }
-    assert!(!p.planner().route().beyond());
+fn the_route_leads_round_a_wall_left_behind() {
+    // a wall along y = 1 across the map (robot frame: the map is the robot's, heading along x)
+    let wall: Vec<u8> = (0..grid().len())
+        .map(|i| {
+            let (_, y) = grid().center_of(i / grid().cells, i % grid().cells);
+            if (y - 1.0).abs() < 0.06 {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        })
+        .collect();
+    let length = |memory_m: f64| {
+        let mut params = PlannerParams::default();
+        params.planner.route_memory_m = memory_m;
+        let t = 10 * S;
+        let mut p = Pilot::new(params);
+        p.goal(&goal(0.0, -6.0, t)).expect("a good goal");
+        let at = |p: &mut Pilot, k: u64, y: f64, map: &[u8]| {
+            let now = t + k * 100 * MS;
+            p.odom(&Odometry { y, ..odom(now) }).expect("good odometry");
+            p.on_map(&header(k), map.iter().copied(), now);
+        };
+        at(&mut p, 0, 0.0, &wall);
+        // 9 m on along y, the wall off the map; long enough for the lengths to be searched
+        for k in 1..40 {
+            at(&mut p, k, 9.0, &free());
+        }
+        f64::from(p.planner().route().value(0.0, 0.0))
+    };
+    let (without, with) = (length(0.0), length(15.0));
+    // straight: 15 m; round the wall's remembered end at x = ±5 m about 20 m
+    assert!((14.0..16.5).contains(&without), "{without}");
+    assert!(with > without + 3.0, "{with} against {without}");
 }
 
 /// Issue 22: Spot walked along a storefront converging on its path until the dynamic window
