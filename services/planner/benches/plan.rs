@@ -228,10 +228,7 @@ fn breakdown(config: &Config, maps: &[Case]) {
         let s = Instant::now();
         let pose = mimnav_shared::pose::pose2(0.1 * k as f64, 0.0, 0.0);
         let now = k as u64 * 100_000_000;
-        // (as the pilot: a map taken in every `UPDATE_EVERY_NS`)
-        if now % mimnav_planner::memory::UPDATE_EVERY_NS < 100_000_000 {
-            memory.update(&pose, classes, grid, now, memory_ns, memory_m);
-        }
+        memory.take_in(&pose, classes, grid, now, memory_ns, memory_m);
         // a goal fixed in the odometry frame, 12 m on from where the drive starts, as the
         // pilot's: the lengths are searched again once a second or a metre, a search spread
         // over a few maps

@@ -38,8 +38,8 @@ pub const CELL_M: f64 = 0.5;
 const FIELD_MOVE_M: f64 = 2.0;
 /// ... or this long after the last search, ns.
 const FIELD_EVERY_NS: u64 = 2_000_000_000;
-/// The pilot takes a map into the memory at most this often, ns: what it records matters once it
-/// has left the map, and reading a whole map costs a fifth of a plan.
+/// [`Memory::take_in`] reads a map at most this often, ns: what it records matters once it has
+/// left the map, and reading a whole map costs a fifth of a plan.
 pub const UPDATE_EVERY_NS: u64 = 300_000_000;
 /// The lattice cells a search settles per map ([`Memory::beyond`]'s `budget` in the pilot): a
 /// field of 15 m is 3721 cells, searched over about ten maps (a second at 10 Hz).
@@ -169,6 +169,8 @@ pub struct Memory {
     search: Option<Search>,
     /// A finished search's buffers, for the next.
     spare: Option<Search>,
+    /// When [`Memory::take_in`] last read a map.
+    read_ns: Option<u64>,
 }
 
 /// What the last search was for.
@@ -206,6 +208,22 @@ impl Memory {
     /// Whether nothing is remembered.
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()
+    }
+
+    /// [`Memory::update`] with a map, unless one was read less than [`UPDATE_EVERY_NS`] before.
+    pub fn take_in(
+        &mut self,
+        pose: &Pose2,
+        classes: &[u8],
+        grid: GridSpec,
+        now: u64,
+        keep_ns: u64,
+        keep_m: f64,
+    ) {
+        if (self.read_ns).is_none_or(|t| now.saturating_sub(t) >= UPDATE_EVERY_NS) {
+            self.update(pose, classes, grid, now, keep_ns, keep_m);
+            self.read_ns = Some(now);
+        }
     }
 
     /// Takes in one map (`classes` on `grid`, the robot at `pose` in the odometry frame) at

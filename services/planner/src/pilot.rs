@@ -193,8 +193,6 @@ pub struct Pilot {
     look: Look,
     /// The solids and glass of past maps, for the route beyond the map.
     memory: crate::memory::Memory,
-    /// When a map was last taken into `memory`.
-    memory_ns: Option<u64>,
     /// Squeezing through: see [`Tight`].
     tight: Tight,
     /// Suspected glass given up: see [`GiveUp`].
@@ -369,7 +367,6 @@ impl Pilot {
             back_out: BackOut::default(),
             look: Look::default(),
             memory: crate::memory::Memory::default(),
-            memory_ns: None,
             tight: Tight::default(),
             given_up: GiveUp::default(),
         }
@@ -701,16 +698,15 @@ impl Pilot {
             return;
         }
         let m = &mut self.memory;
-        if self
-            .memory_ns
-            .is_none_or(|t| now.saturating_sub(t) >= crate::memory::UPDATE_EVERY_NS)
-        {
-            m.update(pose, &self.classes, grid, now, keep_ns, radius_m);
-            self.memory_ns = Some(now);
-        }
+        m.take_in(pose, &self.classes, grid, now, keep_ns, radius_m);
         let local = (local.0 as f32, local.1 as f32);
         let budget = crate::memory::SEARCH_CELLS_PER_MAP;
-        let beyond = m.beyond(pose, goal, local, now, radius_m, suspect_weight, budget);
+        // the field reaches past the map's corners, so every border cell has a length or is
+        // known to have no way (a `route_memory_m` below the map's half diagonal would leave
+        // border cells outside it, taken for cells with no way)
+        let corner_m = f64::from(grid.half_extent_m()) * std::f64::consts::SQRT_2;
+        let field_m = radius_m.max(corner_m + crate::memory::CELL_M);
+        let beyond = m.beyond(pose, goal, local, now, field_m, suspect_weight, budget);
         self.planner.set_beyond(beyond);
     }
 

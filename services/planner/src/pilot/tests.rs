@@ -437,18 +437,23 @@ fn every_decision_describes_itself() {
     );
 }
 
-/// A solid wall across the whole map 1.5 m ahead.
-fn wall_across_ahead() -> Vec<u8> {
+/// A map solid where `at` says (robot frame), free elsewhere.
+fn solid_where(at: impl Fn(f32, f32) -> bool) -> Vec<u8> {
     (0..grid().len())
         .map(|i| {
-            let (x, _) = grid().center_of(i / grid().cells, i % grid().cells);
-            if (x - 1.5).abs() < 0.06 {
+            let (x, y) = grid().center_of(i / grid().cells, i % grid().cells);
+            if at(x, y) {
                 cell_class::SOLID
             } else {
                 cell_class::FREE
             }
         })
         .collect()
+}
+
+/// A solid wall across the whole map 1.5 m ahead.
+fn wall_across_ahead() -> Vec<u8> {
+    solid_where(|x, _| (x - 1.5).abs() < 0.06)
 }
 
 #[test]
@@ -494,16 +499,7 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
 #[test]
 fn the_route_leads_round_a_wall_left_behind() {
     // a wall along y = 1 across the map (robot frame: the map is the robot's, heading along x)
-    let wall: Vec<u8> = (0..grid().len())
-        .map(|i| {
-            let (_, y) = grid().center_of(i / grid().cells, i % grid().cells);
-            if (y - 1.0).abs() < 0.06 {
-                cell_class::SOLID
-            } else {
-                cell_class::FREE
-            }
-        })
-        .collect();
+    let wall = solid_where(|_, y| (y - 1.0).abs() < 0.06);
     let length = |memory_m: f64| {
         let mut params = PlannerParams::default();
         params.planner.route_memory_m = memory_m;
