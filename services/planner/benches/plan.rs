@@ -7,7 +7,8 @@
 //!
 //! Each case runs its maps round after round for 3 s and prints the mean, median and p99 over
 //! every plan, then over each map's least time of its rounds (its own cost, with less of what
-//! other work on the machine added), then the stages alone.
+//! other work on the machine added), then the stages alone; for Spot, the way-out search
+//! ([`Planner::maneuver`]) on every map too.
 //!
 //! `PLAN_BENCH=digest` plans each map once per case and prints a digest of the outcomes (a
 //! speed-up must leave them the same) — short enough to count instructions under
@@ -197,6 +198,38 @@ fn time(name: &str, config: &Config, inflation: Inflation, maps: &[Case]) {
     }
 }
 
+/// A long body's way-out search ([`Planner::maneuver`]) on every map after its plan, as the
+/// pilot runs it once a body is held still (and after each map that shows its way blocked):
+/// µs per search, and on how many maps it found a way. The maps are of a drive nothing held,
+/// so most searches run until they find a place to turn headed the route's way — a bound, not
+/// the pilot's usual case.
+fn maneuvers(name: &str, config: &Config, maps: &[Case]) {
+    let mut planner = Planner::new(config.planner_params());
+    let grid = config.map.grid();
+    let (mut times, mut found) = (Vec::new(), 0);
+    for _ in 0..3 {
+        for (classes, v, w, goal) in maps {
+            std::hint::black_box(planner.plan(classes, grid, *v, *w, *goal));
+            let t = Instant::now();
+            found += usize::from(std::hint::black_box(planner.maneuver(grid, None)).is_some());
+            times.push(t.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    if times.is_empty() {
+        return;
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "{name}: maneuver search mean {:.0} µs, median {:.0} µs, p99 {:.0} µs, max {:.0} µs; a way found on {} of {} maps",
+        times.iter().sum::<f64>() / times.len() as f64,
+        times[times.len() / 2],
+        times[(times.len() * 99 / 100).min(times.len() - 1)],
+        times[times.len() - 1],
+        found / 3,
+        times.len() / 3
+    );
+}
+
 /// Where the time goes: each stage alone, mean µs per map.
 fn breakdown(config: &Config, maps: &[Case]) {
     if digest_only() {
@@ -345,5 +378,8 @@ fn main() {
         let maps = kept(world, "spot", || maps(&spot, world));
         time(&format!("{world}, Spot"), &spot, Inflation::Adaptive, &maps);
         breakdown(&spot, &maps);
+        if !digest_only() {
+            maneuvers(&format!("{world}, Spot"), &spot, &maps);
+        }
     }
 }

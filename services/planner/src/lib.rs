@@ -23,6 +23,7 @@ pub mod guard;
 pub mod inflate;
 pub mod jamb;
 pub mod look;
+pub mod maneuver;
 pub mod memory;
 pub mod params;
 pub mod pilot;
@@ -80,6 +81,8 @@ pub struct Planner {
     own: Vec<u8>,
     /// The curtains' free ends of the last map ([`jamb::curtain_ends`]).
     ends: Vec<usize>,
+    /// The maneuver search's buffers ([`Planner::maneuver`]).
+    maneuver: maneuver::Scratch,
 }
 
 impl Planner {
@@ -96,6 +99,7 @@ impl Planner {
             route: Route::default(),
             own: Vec::new(),
             ends: Vec::new(),
+            maneuver: maneuver::Scratch::default(),
         }
     }
 
@@ -235,6 +239,53 @@ impl Planner {
         )
     }
 
+    /// A rectangular body's way out by straight moves and turns on the spot ([`maneuver`]) on
+    /// the map of the last plan, with its clearance and route: to the first pose the route
+    /// counts [`MANEUVER_GAIN_M`] nearer the goal. `prev` is the move being made, if any.
+    /// `None` for a round body, without a route, or with no such way within
+    /// [`MANEUVER_RADIUS_M`].
+    pub fn maneuver(
+        &mut self,
+        grid: GridSpec,
+        prev: Option<maneuver::Move>,
+    ) -> Option<maneuver::Plan> {
+        let p = &self.params;
+        let body = p.robot.body();
+        if !matches!(body, Body::Rectangle { .. }) || p.planner.route_cell_m <= 0.0 {
+            return None;
+        }
+        let settings = maneuver_settings(p);
+        if !settings.checked(body.enclosing_radius_m()) {
+            return None;
+        }
+        let route = &self.route;
+        maneuver::search(
+            &p.outline(),
+            grid,
+            &self.clear,
+            |x, y| route.value(x, y),
+            &settings,
+            prev,
+            &mut self.maneuver,
+        )
+    }
+
+    /// True when the body fits at every one of `poses` (robot frame: x, y m, heading rad) on the
+    /// map of the last plan, as a maneuver's poses must: each point of its outline at least
+    /// the maneuver's need from obstacles, or no nearer than the body is where it stands.
+    pub fn maneuver_holds(
+        &self,
+        grid: GridSpec,
+        poses: impl IntoIterator<Item = [f64; 3]>,
+    ) -> bool {
+        let outline = self.params.outline();
+        let least = |pose| maneuver::least_clearance(&outline, grid, &self.clear, pose);
+        let need = maneuver_settings(&self.params)
+            .need_m
+            .min(least([0.0; 3]) - 1e-6);
+        need > 0.0 && poses.into_iter().all(|pose| least(pose) >= need)
+    }
+
     /// The planning cost of the last map (eq. 11), 0–255 per cell.
     pub fn cost(&self) -> &[u8] {
         &self.cost
@@ -256,6 +307,39 @@ impl Planner {
     pub fn set_beyond(&mut self, beyond: Option<&crate::memory::Beyond>) {
         self.route.set_beyond(beyond);
     }
+}
+
+/// A maneuver ([`Planner::maneuver`]) ends where the route is this much shorter, m: past a
+/// door's jambs for a body that had to turn into it.
+pub const MANEUVER_GAIN_M: f64 = 1.0;
+
+/// How far from the robot a maneuver may lead, m (its poses' centres): inside the clearance the
+/// dynamic window computes, with the body's reach.
+pub const MANEUVER_RADIUS_M: f64 = 2.0;
+
+/// The maneuver search's settings for `p`: the lattice of 10 cm moves, a turn costing what
+/// driving costs in the same time (at `recovery_mps` and half the top turn rate), a cusp
+/// 0.3 m, the end where the body can turn on the spot (its enclosing circle
+/// `inside_margin_share` of the margin from obstacles), and every point of the outline kept `inside_margin_share` of the margin from
+/// obstacles (what the dynamic window allows a body already inside its margin) and half the
+/// outline's spacing.
+pub fn maneuver_settings(p: &PlannerParams) -> maneuver::Settings {
+    let pl = &p.planner;
+    maneuver::Settings {
+        step_m: 0.1,
+        radius_m: MANEUVER_RADIUS_M,
+        turn_m_per_rad: pl.recovery_mps / maneuver_turn_rps(p),
+        cusp_m: 0.3,
+        gain_m: MANEUVER_GAIN_M,
+        need_m: pl.inside_margin_share * pl.margin_m + 0.5 * params::OUTLINE_SPACING_M,
+        turn_room_m: p.robot.body().enclosing_radius_m() + pl.inside_margin_share * pl.margin_m,
+        max_expanded: 30_000,
+    }
+}
+
+/// The turn rate of a maneuver's turns on the spot: half the robot's top, rad/s.
+pub fn maneuver_turn_rps(p: &PlannerParams) -> f64 {
+    (0.5 * p.robot.max_angular_rps).max(1e-3)
 }
 
 /// Beyond [`dwa::guard_m`], how far from a rectangular body a cell is still guarded, m: farther
