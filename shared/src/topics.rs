@@ -303,6 +303,11 @@ pub mod command_flags {
     /// `planner.margin_m`, slowly, for `planner.tight_s` (a gap the body fits with less than
     /// the margin each side).
     pub const TIGHT: u8 = 16;
+    /// The robot is following a way out by straight moves forward and back and turns on the
+    /// spot: the dynamic window held a long body still (a door in the side of a corridor it
+    /// came past) for `planner.recovery_after_s`, and a search over its poses found a way on
+    /// (`planner.maneuver_s`).
+    pub const MANEUVERING: u8 = 32;
 }
 
 /// A velocity command for the base (REP-103: v forward, ω counter-clockwise).

@@ -140,6 +140,12 @@ pub struct PlannerConfig {
     /// Backing-out tries without the robot getting `0.5 m` nearer the goal, after which it stops
     /// with the `blocked` status.
     pub recovery_max: u32,
+    /// A long body held still as [`recovery_after_s`](Self::recovery_after_s) says first
+    /// searches for a way out by straight moves forward and back and turns on the spot
+    /// ([`crate::maneuver`]) and follows it, at `recovery_mps` and half its top turn rate, for
+    /// at most this long a try (a try as a backing out is, counted in `recovery_max`); backing
+    /// out as before where the search finds none, s (0: never; a round body never needs it).
+    pub maneuver_s: f64,
     /// A robot whose route has led it no nearer the goal for this long, the route running into
     /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past
     /// the suspected stretch's end, so its beams meet the whole stretch squarely (issue 22,
@@ -225,6 +231,7 @@ impl Default for PlannerConfig {
             recovery_s: 2.0,
             recovery_mps: 0.15,
             recovery_max: 4,
+            maneuver_s: 20.0,
             look_after_s: 3.0,
             look_s: 8.0,
             look_openings_only: true,
@@ -348,6 +355,7 @@ impl PlannerConfig {
             0.0,
             100.0,
         );
+        r.check("planner.maneuver_s", self.maneuver_s, 0.0, 600.0);
         r.check(
             "planner.foliage_max_age_s",
             self.foliage_max_age_s,

@@ -187,6 +187,11 @@ impl PlannerParams {
         seconds_ns(self.planner.recovery_s)
     }
 
+    /// How long one maneuver lasts at most (`planner.maneuver_s`), ns.
+    pub fn maneuver_ns(&self) -> u64 {
+        seconds_ns(self.planner.maneuver_s)
+    }
+
     /// How long a command is valid after it is sent (`robot.command_validity_s`), ns.
     pub fn command_validity_ns(&self) -> u64 {
         seconds_ns(self.robot.command_validity_s)

@@ -189,6 +189,8 @@ pub struct Pilot {
     map_hop: Hop,
     /// Backing out: see [`BackOut`].
     back_out: BackOut,
+    /// A long body's way out: see [`Maneuvering`].
+    maneuver: Maneuvering,
     /// Going to look at suspected glass: see [`Look`].
     look: Look,
     /// The solids and glass of past maps, for the route beyond the map.
@@ -217,6 +219,63 @@ struct BackOut {
     tries: u32,
     /// The distance to the goal then, m.
     progress_ref_m: f64,
+}
+
+/// A long body following a way out ([`crate::maneuver`]): its moves with the poses they end
+/// at, in the odometry frame, followed in order; searched anew from where the robot stands
+/// when a map shows one of the poses left blocked.
+#[derive(Debug, Clone, Default)]
+struct Maneuvering {
+    /// Until then at most (monotonic ns); `None`: not maneuvering.
+    until: Option<u64>,
+    /// The moves and the poses they end at (odometry frame: x, y m, heading rad).
+    moves: Vec<(crate::maneuver::Move, [f64; 3])>,
+    /// The first move not yet done.
+    next: usize,
+}
+
+/// A maneuver's straight move is done this near its end (m), a turn this near its heading
+/// (rad).
+const MOVE_DONE: (f64, f64) = (0.02, 0.03);
+/// A maneuver's straight moves hold their heading turning this much per radian off it, 1/s.
+const HOLD_GAIN: f64 = 1.0;
+
+impl Maneuvering {
+    /// Takes `plan` (robot frame at `pose`) as the way to follow.
+    fn follow(&mut self, plan: &crate::maneuver::Plan, pose: &mimnav_shared::pose::Pose2) {
+        use mimnav_shared::pose::Pose2Ext as _;
+        self.moves.clear();
+        self.moves
+            .extend(plan.moves.iter().map(|&(mv, [x, y, th])| {
+                let (fx, fy) = pose.to_fixed(x, y);
+                (mv, [fx, fy, crate::maneuver::wrap(pose.yaw() + th)])
+            }));
+        self.next = 0;
+    }
+
+    /// Moves on past the moves done at `pose`; the move to make, with the pose it ends at.
+    fn current(
+        &mut self,
+        pose: &mimnav_shared::pose::Pose2,
+    ) -> Option<(crate::maneuver::Move, [f64; 3])> {
+        use crate::maneuver::Move;
+        use mimnav_shared::pose::Pose2Ext as _;
+        while let Some(&(mv, [x, y, th])) = self.moves.get(self.next) {
+            let along = (pose.x() - x) * th.cos() + (pose.y() - y) * th.sin();
+            let off = crate::maneuver::wrap(th - pose.yaw());
+            let done = match mv {
+                Move::Forward => along >= -MOVE_DONE.0,
+                Move::Back => along <= MOVE_DONE.0,
+                Move::Left => off <= MOVE_DONE.1,
+                Move::Right => off >= -MOVE_DONE.1,
+            };
+            if !done {
+                return Some((mv, [x, y, th]));
+            }
+            self.next += 1;
+        }
+        None
+    }
 }
 
 /// A route this much longer than the shortest it has been is a changed map (a wall seen late),
@@ -365,6 +424,7 @@ impl Pilot {
             no_route_since: None,
             map_hop: Hop::new(),
             back_out: BackOut::default(),
+            maneuver: Maneuvering::default(),
             look: Look::default(),
             memory: crate::memory::Memory::default(),
             tight: Tight::default(),
@@ -419,6 +479,7 @@ impl Pilot {
             self.goal = None;
             self.no_route_since = None;
             self.back_out = BackOut::default();
+            self.maneuver = Maneuvering::default();
             self.look = Look::default();
             self.tight = Tight::default();
             self.given_up = GiveUp::default();
@@ -432,6 +493,7 @@ impl Pilot {
         // a new goal may have a route: its own time to find one, its own tries to back out
         self.no_route_since = None;
         self.back_out = BackOut::default();
+        self.maneuver = Maneuvering::default();
         self.look = Look::default();
         self.tight = Tight::default();
         self.given_up = GiveUp::default();
@@ -548,6 +610,9 @@ impl Pilot {
         if let Some(d) = self.backing_out(grid, (v0, omega0), (gx, gy), now, flags, header) {
             return d;
         }
+        if let Some(d) = self.maneuvering(grid, &pose, (v0, omega0), (gx, gy), now, flags, header) {
+            return d;
+        }
         if let Some(d) = self.looking(grid, &pose, (v0, omega0), now, flags, header) {
             return d;
         }
@@ -567,8 +632,16 @@ impl Pilot {
         };
         self.tight.see(route_m, now, after, lasts);
         self.give_up(grid, &pose, route_m, now);
-        if let Some(d) = self.held_still(&outcome, grid, (v0, omega0), (gx, gy), now, flags, header)
-        {
+        if let Some(d) = self.held_still(
+            &outcome,
+            grid,
+            Some(&pose),
+            (v0, omega0),
+            (gx, gy),
+            now,
+            flags,
+            header,
+        ) {
             return d;
         }
         if let Some(d) = self.start_look(grid, &pose, (v0, omega0), now, flags, header) {
@@ -631,6 +704,7 @@ impl Pilot {
         &mut self,
         outcome: &DwaOutcome,
         grid: GridSpec,
+        pose: Option<&mimnav_shared::pose::Pose2>,
         v0_omega0: (f64, f64),
         goal: (f64, f64),
         now: u64,
@@ -664,8 +738,94 @@ impl Pilot {
             ));
         }
         b.tries += 1;
-        b.until = Some(now.saturating_add(lasts));
+        // a long body: a way out by moves and turns on the spot first, searched on this map
+        let maneuver_ns = self.params().maneuver_ns();
+        if maneuver_ns > 0
+            && let Some(pose) = pose
+            && let Some(plan) = self.planner.maneuver(grid, None)
+        {
+            self.maneuver.follow(&plan, pose);
+            self.maneuver.until = Some(now.saturating_add(maneuver_ns));
+            if let Some(d) = self.maneuver_step(pose, flags, header) {
+                return Some(d);
+            }
+        }
+        self.back_out.until = Some(now.saturating_add(lasts));
         self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// While following a way out ([`Maneuvering::until`] not passed): the next move, or `None`
+    /// (and the maneuver ends) when every move is done, the time is up, or a pose left is
+    /// blocked on this map and no way is found any more from where the robot stands.
+    #[allow(clippy::too_many_arguments)]
+    fn maneuvering(
+        &mut self,
+        grid: GridSpec,
+        pose: &mimnav_shared::pose::Pose2,
+        v0_omega0: (f64, f64),
+        goal: (f64, f64),
+        now: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        let until = self.maneuver.until?;
+        if now >= until || self.maneuver.current(pose).is_none() {
+            self.maneuver = Maneuvering::default();
+            return None;
+        }
+        // this map's clearance and route; the poses left, still free on it?
+        let _ = (self.planner).plan_as(crate::Mode::Forward, &self.classes, grid, v0_omega0, goal);
+        let m = &self.maneuver;
+        let left = m.moves[m.next..].iter().filter_map(|&(_, [x, y, th])| {
+            let (lx, ly) = crate::guard::goal_in_robot_frame(pose, x, y)?;
+            use mimnav_shared::pose::Pose2Ext as _;
+            Some([lx, ly, crate::maneuver::wrap(th - pose.yaw())])
+        });
+        let left: Vec<[f64; 3]> = left.collect();
+        if left.len() != m.moves.len() - m.next || !self.planner.maneuver_holds(grid, left) {
+            let doing = self.maneuver.current(pose).map(|c| c.0);
+            let Some(plan) = self.planner.maneuver(grid, doing) else {
+                self.maneuver = Maneuvering::default();
+                return None;
+            };
+            self.maneuver.follow(&plan, pose);
+        }
+        let d = self.maneuver_step(pose, flags, header);
+        if d.is_none() {
+            self.maneuver = Maneuvering::default();
+        }
+        d
+    }
+
+    /// The command for the way out's move at `pose`: forward or back at
+    /// `planner.recovery_mps` holding the move's heading, or a turn on the spot
+    /// ([`crate::maneuver_turn_rps`]); `None` when every move is done.
+    fn maneuver_step(
+        &mut self,
+        pose: &mimnav_shared::pose::Pose2,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        use crate::maneuver::Move;
+        use mimnav_shared::pose::Pose2Ext as _;
+        let (speed, turn) = (
+            self.params().planner.recovery_mps,
+            crate::maneuver_turn_rps(self.params()),
+        );
+        let (mv, [_, _, th]) = self.maneuver.current(pose)?;
+        let hold = (HOLD_GAIN * crate::maneuver::wrap(th - pose.yaw())).clamp(-turn, turn);
+        let (v, omega) = match mv {
+            Move::Forward => (speed, hold),
+            Move::Back => (-speed, hold),
+            Move::Left => (0.0, turn),
+            Move::Right => (0.0, -turn),
+        };
+        Some(Decision::drive(
+            v,
+            omega,
+            flags | command_flags::MANEUVERING,
+            header,
+        ))
     }
 
     /// Where the last plan's route runs into suspected glass within [`LOOK_WITHIN_M`] ahead
