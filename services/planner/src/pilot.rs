@@ -142,6 +142,11 @@ impl Decision {
         } else {
             what
         };
+        let what = if driving && self.flags & command_flags::MANEUVERING != 0 {
+            what + " on a searched way out (moves and turns on the spot)"
+        } else {
+            what
+        };
         let what = if driving && self.flags & command_flags::LOOKING != 0 {
             what + " beside suspected glass, to see it"
         } else {

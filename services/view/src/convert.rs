@@ -519,6 +519,7 @@ pub fn cmd_vel(c: &VelocityCommand, rev_to_cmd_us: Option<f64>) -> Vec<u8> {
         "backing_out": c.flags & command_flags::BACKING_OUT != 0,
         "looking": c.flags & command_flags::LOOKING != 0,
         "tight": c.flags & command_flags::TIGHT != 0,
+        "maneuvering": c.flags & command_flags::MANEUVERING != 0,
         "rev_to_cmd_us": rev_to_cmd_us,
     }))
 }
@@ -611,6 +612,7 @@ pub mod schemas {
                 ("backing_out", "boolean"),
                 ("looking", "boolean"),
                 ("tight", "boolean"),
+                ("maneuvering", "boolean"),
                 ("rev_to_cmd_us", "number|null"),
             ],
         )
