@@ -144,7 +144,8 @@ pub struct PlannerConfig {
     /// searches for a way out by straight moves forward and back and turns on the spot
     /// ([`crate::maneuver`]) and follows it, at `recovery_mps` and half its top turn rate, for
     /// at most this long a try (a try as a backing out is, counted in `recovery_max`); backing
-    /// out as before where the search finds none, s (0: never; a round body never needs it).
+    /// out as before where the search finds none, s (0, the default: never — measured on the
+    /// tune worlds it changed no total, docs/glass.md; a round body never needs it).
     pub maneuver_s: f64,
     /// A robot whose route has led it no nearer the goal for this long, the route running into
     /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past
@@ -231,7 +232,7 @@ impl Default for PlannerConfig {
             recovery_s: 2.0,
             recovery_mps: 0.15,
             recovery_max: 4,
-            maneuver_s: 20.0,
+            maneuver_s: 0.0,
             look_after_s: 3.0,
             look_s: 8.0,
             look_openings_only: true,

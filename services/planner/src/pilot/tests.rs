@@ -888,8 +888,8 @@ fn a_stretch_the_robot_stands_before_is_given_up_for_another_way() {
 /// its side to the room with the goal, nearer the door's wall than its corners need to turn on
 /// the spot. The dynamic window holds it still; after `planner.recovery_after_s` it follows a
 /// way out by moves back and turns on the spot (flag `MANEUVERING`) into the room, and reaches
-/// the goal without its body ever overlapping a wall. Without the maneuver (`maneuver_s` 0)
-/// it backs out as before and does not get there in the same time.
+/// the goal without its body ever overlapping a wall. Without the maneuver (`maneuver_s` 0,
+/// the default) it backs out as before and does not get there in the same time.
 #[test]
 fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
     let wall = |d: f64| d.abs() < 0.05;
@@ -913,6 +913,7 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
         params.robot.max_linear_mps,
         params.robot.max_angular_rps,
     ) = (0.6, 1.1, 0.5, 0.6, 0.6);
+    params.planner.maneuver_s = 20.0;
     let body = params.robot.body();
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
     assert!(
