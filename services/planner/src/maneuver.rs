@@ -112,17 +112,6 @@ pub struct Plan {
     pub to_go_m: f64,
 }
 
-impl Plan {
-    /// The first run of equal moves: the move and how many.
-    pub fn first_run(&self) -> Option<(Move, usize)> {
-        let first = self.moves.first()?.0;
-        Some((
-            first,
-            self.moves.iter().take_while(|m| m.0 == first).count(),
-        ))
-    }
-}
-
 /// The search's buffers, kept between searches.
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {

@@ -640,7 +640,7 @@ impl Pilot {
         if let Some(d) = self.held_still(
             &outcome,
             grid,
-            Some(&pose),
+            &pose,
             (v0, omega0),
             (gx, gy),
             now,
@@ -709,7 +709,7 @@ impl Pilot {
         &mut self,
         outcome: &DwaOutcome,
         grid: GridSpec,
-        pose: Option<&mimnav_shared::pose::Pose2>,
+        pose: &mimnav_shared::pose::Pose2,
         v0_omega0: (f64, f64),
         goal: (f64, f64),
         now: u64,
@@ -746,7 +746,6 @@ impl Pilot {
         // a long body: a way out by moves and turns on the spot first, searched on this map
         let maneuver_ns = self.params().maneuver_ns();
         if maneuver_ns > 0
-            && let Some(pose) = pose
             && let Some(plan) = self.planner.maneuver(grid, None)
         {
             self.maneuver.follow(&plan, pose);
