@@ -45,6 +45,11 @@ pub struct WorldScore {
     pub last: MapScore,
     /// Summed over the scored revolutions, leaving out the cells of obstacles hidden in grass.
     pub visible: MapScore,
+    /// Summed over the scored revolutions, leaving out the glass of panes that no beam has
+    /// faced yet, neither they nor a pane joined to them on their line
+    /// ([`mimnav_sim::truth::faces_pane`], [`mimnav_sim::truth::pane_line`]): what a map built
+    /// from the returns can hold. Only its glass class is meaningful.
+    pub faced: MapScore,
     /// Obstacles hidden in grass (no taller than the grass they stand in).
     pub hidden: usize,
     /// Revolutions scored.
@@ -69,6 +74,15 @@ pub fn score_world(
     let mut hidden_cells = Vec::new();
     let mut exclude = Vec::new();
     let survey = scene.survey.clone();
+    // the panes of each pane's line, and whether each pane has been faced yet
+    let lines: Vec<Vec<usize>> = (0..scene.objects.len())
+        .map(|i| mimnav_sim::truth::pane_line(&scene, i))
+        .collect();
+    let mut faced = vec![false; scene.objects.len()];
+    let panes = scene.clone();
+    let specular = config.sim.glass_specular_deg;
+    let (mut unfaced_cells, mut unfaced_mask) = (Vec::new(), Vec::new());
+    let mut faced_score = MapScore::default();
     // the deployed mapper's step on the driver's revolutions, the simulator's odometry
     let options = Options {
         map: MapSource::Intensity,
@@ -94,6 +108,10 @@ pub fn score_world(
         let (sim, classes) = (stack.sim(), stack.classes());
         let pose = sim.base().pose;
         sim.truth(grid, &mut truth);
+        let sensor = sim.sensor_position();
+        for (f, o) in faced.iter_mut().zip(&panes.objects) {
+            *f = *f || mimnav_sim::truth::faces_pane(o, sensor, specular);
+        }
         if seen > warmup {
             last = score(classes, &truth, grid, range);
             total.add(&last);
@@ -115,6 +133,30 @@ pub fn score_world(
                     Some(&exclude),
                 ));
             }
+            // the glass of the panes not faced yet, on their line or themselves, left out
+            let unfaced: Vec<usize> = lines
+                .iter()
+                .enumerate()
+                .filter(|(_, line)| !line.is_empty() && !line.iter().any(|&k| faced[k]))
+                .map(|(i, _)| i)
+                .collect();
+            if unfaced.is_empty() {
+                faced_score.add(&last);
+            } else {
+                mimnav_sim::truth::truth_grid(&panes.only(&unfaced), &pose, grid, &mut unfaced_cells);
+                unfaced_mask.clear();
+                unfaced_mask.extend(unfaced_cells.iter().zip(&truth).map(|(&u, &t)| {
+                    u == mimnav_shared::topics::cell_class::GLASS
+                        && t == mimnav_shared::topics::cell_class::GLASS
+                }));
+                faced_score.add(&score_excluding(
+                    classes,
+                    &truth,
+                    grid,
+                    range,
+                    Some(&unfaced_mask),
+                ));
+            }
             revolutions += 1;
         }
         let (v, w) = driver.command(&pose, &limits);
@@ -126,6 +168,7 @@ pub fn score_world(
         total,
         last,
         visible,
+        faced: faced_score,
         hidden: hidden.objects.len(),
         revolutions,
         outcome: sim.outcome(),
@@ -179,9 +222,9 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
         args.range
     )?;
     outln!(
-        "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | solid, obstacles hidden in grass left out | revolutions | route | mapper µs/rev |"
+        "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | glass of the panes faced (P R F) | solid, obstacles hidden in grass left out | revolutions | route | mapper µs/rev |"
     )?;
-    outln!("|---|---|---|---|---|---|---|---|---|")?;
+    outln!("|---|---|---|---|---|---|---|---|---|---|")?;
     for path in &worlds {
         let s = score_world(config, path, seed, args.range, args.warmup)?;
         let outcome = match s.outcome {
@@ -190,12 +233,13 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
             Outcome::Timeout => "timeout".to_string(),
         };
         outln!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
             s.name,
             cell(&s.total.solid),
             cell(&s.total.passable),
             cell(&s.total.glass),
             cell(&s.last.glass),
+            cell(&s.faced.glass),
             if s.hidden == 0 {
                 "(none hidden)".to_string()
             } else {
@@ -207,4 +251,57 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
         )?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drive along x beside one pane it faces (its perpendicular's foot slides along it) and
+    /// towards one it never faces (on a line parallel to the drive, beyond its end): the glass of
+    /// the second is in all revolutions' truth, not in the faced panes'.
+    #[test]
+    fn a_pane_never_faced_is_left_out_of_the_faced_score_only() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let config = Config::load(&root.join("config/mimnav.toml"), &[]).expect("shipped config");
+        let dir = std::env::temp_dir().join(format!("mimnav-score-faced-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("faced.toml");
+        std::fs::write(
+            &path,
+            r#"name = "faced and not"
+start = [0.0, 0.0, 0.0]
+goal = [4.5, 0.0]
+time_limit_s = 60.0
+survey = [[4.5, 0.0]]
+
+[ground]
+reflectivity = 12
+
+[[glass]]
+from = [0.5, -1.5]
+to = [3.5, -1.5]
+bottom = 0.0
+top = 2.5
+
+[[glass]]
+from = [6.5, 1.2]
+to = [9.0, 1.2]
+bottom = 0.0
+top = 2.5
+"#,
+        )
+        .expect("world written");
+        let s = score_world(&config, &path, 1, 4.5, 2).expect("scored");
+        let _ = std::fs::remove_dir_all(&dir);
+        let (all, faced) = (s.total.glass, s.faced.glass);
+        eprintln!("all {all:?}\nfaced {faced:?}");
+        // the far pane is within 4.5 m at the end of the drive and never found
+        assert!(all.fn_ > faced.fn_, "{all:?} {faced:?}");
+        assert!(faced.tp + faced.fn_ > 0, "the faced pane is scored: {faced:?}");
+        assert!(
+            faced.recall() > all.recall() && faced.recall() >= 0.9,
+            "{all:?} {faced:?}"
+        );
+    }
 }
