@@ -143,7 +143,12 @@ pub fn score_world(
             if unfaced.is_empty() {
                 faced_score.add(&last);
             } else {
-                mimnav_sim::truth::truth_grid(&panes.only(&unfaced), &pose, grid, &mut unfaced_cells);
+                mimnav_sim::truth::truth_grid(
+                    &panes.only(&unfaced),
+                    &pose,
+                    grid,
+                    &mut unfaced_cells,
+                );
                 unfaced_mask.clear();
                 unfaced_mask.extend(unfaced_cells.iter().zip(&truth).map(|(&u, &t)| {
                     u == mimnav_shared::topics::cell_class::GLASS
@@ -298,7 +303,10 @@ top = 2.5
         eprintln!("all {all:?}\nfaced {faced:?}");
         // the far pane is within 4.5 m at the end of the drive and never found
         assert!(all.fn_ > faced.fn_, "{all:?} {faced:?}");
-        assert!(faced.tp + faced.fn_ > 0, "the faced pane is scored: {faced:?}");
+        assert!(
+            faced.tp + faced.fn_ > 0,
+            "the faced pane is scored: {faced:?}"
+        );
         assert!(
             faced.recall() > all.recall() && faced.recall() >= 0.9,
             "{all:?} {faced:?}"
