@@ -74,15 +74,6 @@ pub fn score_world(
     let mut hidden_cells = Vec::new();
     let mut exclude = Vec::new();
     let survey = scene.survey.clone();
-    // the panes of each pane's line, and whether each pane has been faced yet
-    let lines: Vec<Vec<usize>> = (0..scene.objects.len())
-        .map(|i| mimnav_sim::truth::pane_line(&scene, i))
-        .collect();
-    let mut faced = vec![false; scene.objects.len()];
-    let panes = scene.clone();
-    let specular = config.sim.glass_specular_deg;
-    let (mut unfaced_cells, mut unfaced_mask) = (Vec::new(), Vec::new());
-    let mut faced_score = MapScore::default();
     // the deployed mapper's step on the driver's revolutions, the simulator's odometry
     let options = Options {
         map: MapSource::Intensity,
@@ -91,6 +82,17 @@ pub fn score_world(
         drive: Drive::External,
     };
     let mut stack = Lockstep::new(config, scene, seed, options)?;
+    // the panes of each pane's line, and whether each pane has been faced yet
+    let lines: Vec<Vec<usize>> = {
+        let scene = stack.sim().scene();
+        (0..scene.objects.len())
+            .map(|i| mimnav_sim::truth::pane_line(scene, i))
+            .collect()
+    };
+    let mut faced = vec![false; lines.len()];
+    let specular = config.sim.glass_specular_deg;
+    let (mut unfaced_cells, mut unfaced_mask) = (Vec::new(), Vec::new());
+    let mut faced_score = MapScore::default();
     let mut driver = WaypointDriver::new(survey, 0.25);
     let grid = config.map.grid();
     let mut truth = Vec::new();
@@ -109,6 +111,7 @@ pub fn score_world(
         let pose = sim.base().pose;
         sim.truth(grid, &mut truth);
         let sensor = sim.sensor_position();
+        let panes = sim.scene();
         for (f, o) in faced.iter_mut().zip(&panes.objects) {
             *f = *f || mimnav_sim::truth::faces_pane(o, sensor, specular);
         }
