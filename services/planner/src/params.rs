@@ -148,6 +148,20 @@ impl PlannerParams {
         seconds_ns(self.planner.tight_s)
     }
 
+    /// The least clearance from a solid or glass cell at which the body's centre can cross a
+    /// line, m: its half width and the least margin it ever keeps — `inside_margin_share` of
+    /// `planner.margin_m` (a body already inside its margin), or `planner.tight_margin_m` for a
+    /// round body that squeezes. Suspected glass nearer than this to a solid or glass cell is no
+    /// way through even if it is open ([`crate::narrow`]).
+    pub fn pass_need_m(&self) -> f64 {
+        let p = &self.planner;
+        let mut margin = p.inside_margin_share.clamp(0.0, 1.0) * p.margin_m;
+        if self.tight_after_ns() > 0 {
+            margin = margin.min(p.tight_margin_m);
+        }
+        self.robot.body().half_width_m() + margin.max(0.0)
+    }
+
     /// These settings squeezing through: `planner.margin_m` replaced by
     /// `planner.tight_margin_m`.
     pub fn tight(&self) -> PlannerParams {
