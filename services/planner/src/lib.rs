@@ -66,6 +66,22 @@ pub fn confirm_obstacles(
     changed
 }
 
+/// Sets `cells` to `class` in the planner's copy of the map `own`, first copying `classes` into it
+/// unless it holds them already (`copied`); true when the copy is in use after.
+fn mark(own: &mut Vec<u8>, copied: bool, classes: &[u8], cells: &[usize], class: u8) -> bool {
+    if cells.is_empty() {
+        return copied;
+    }
+    if !copied {
+        own.clear();
+        own.extend_from_slice(classes);
+    }
+    for &i in cells {
+        own[i] = class;
+    }
+    true
+}
+
 /// The planner with its kernel cache and buffers: one call per map.
 #[derive(Debug)]
 pub struct Planner {
@@ -186,16 +202,13 @@ impl Planner {
             // ahead of the body's back: the rollouts drive forward
             let behind = (p.robot.body().enclosing_radius_m() + p.planner.margin_m) as f32;
             jamb::curtain_ends(read, grid, (behind.min(near), near), &mut self.ends);
-            if !self.ends.is_empty() {
-                if !own {
-                    self.own.clear();
-                    self.own.extend_from_slice(classes);
-                    own = true;
-                }
-                for &i in &self.ends {
-                    self.own[i] = cell_class::SUSPECTED_GLASS;
-                }
-            }
+            own |= mark(
+                &mut self.own,
+                own,
+                classes,
+                &self.ends,
+                cell_class::SUSPECTED_GLASS,
+            );
         }
         // suspected glass no body could pass even if it were open: glass for the route, whose
         // coarse test would otherwise find a way through a sliver beside a pane's end ([`narrow`];
@@ -208,16 +221,7 @@ impl Planner {
         {
             let read = if own { &self.own[..] } else { classes };
             narrow::too_narrow(read, grid, p.pass_need_m(), &mut self.narrow);
-            if !self.narrow.is_empty() {
-                if !own {
-                    self.own.clear();
-                    self.own.extend_from_slice(classes);
-                    own = true;
-                }
-                for &i in &self.narrow {
-                    self.own[i] = cell_class::GLASS;
-                }
-            }
+            own |= mark(&mut self.own, own, classes, &self.narrow, cell_class::GLASS);
         }
         let classes = if own { &self.own[..] } else { classes };
         inflate::plan_cost(
