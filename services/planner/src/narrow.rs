@@ -15,9 +15,10 @@
 //! corner, 4–7 m jumps of the route's length between revolutions).
 //!
 //! [`too_narrow`] finds every suspected cell nearer a solid or glass cell than the body could
-//! pass it (the dynamic window's own test, cell centre to cell centre); the planner hands them
-//! to the route as glass. The dynamic window treats suspected glass as glass anyway, so nothing
-//! else changes.
+//! pass it (the dynamic window's own test, cell centre to cell centre); for a rectangular body
+//! the planner hands them to the route as glass (a round body gained nothing by it on the tune
+//! worlds and keeps its route; docs/evaluation.md, stop 68). The dynamic window treats suspected
+//! glass as glass anyway, so nothing else changes.
 
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::topics::cell_class;
@@ -74,7 +75,7 @@ mod tests {
 
     #[test]
     fn a_sliver_between_a_panes_end_and_a_wall_is_too_narrow_and_a_door_is_not() {
-        // a pane's line at x = 1: glass for y < 0, suspected from 0 to 0.4 (a sliver), a wall
+        // a pane's line at x = 1: glass for y < 0, suspected from 0 to 0.37 (a sliver), a wall
         // (solid, across the line) at y = 0.4; past the wall, suspected for 1.2 m, then glass
         let (grid, classes) = map(|x, y| {
             if (x - 1.0).abs() > 0.03 {
