@@ -147,6 +147,12 @@ pub struct PlannerConfig {
     /// out as before where the search finds none, s (0, the default: never — measured on the
     /// tune worlds it changed no total, docs/glass.md; a round body never needs it).
     pub maneuver_s: f64,
+    /// A long body whose best forward plan comes less than this much nearer the goal by the
+    /// route (every rollout leads away: a door in the side of a corridor it is driving past,
+    /// seen open only behind it) is held still as a plan that stops it is, so that after
+    /// `recovery_after_s` it maneuvers or backs out instead of driving on away from the
+    /// goal, m (0: never; a round body never, it turns on the spot).
+    pub still_gain_m: f64,
     /// A robot whose route has led it no nearer the goal for this long, the route running into
     /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past
     /// the suspected stretch's end, so its beams meet the whole stretch squarely (issue 22,
@@ -233,6 +239,7 @@ impl Default for PlannerConfig {
             recovery_mps: 0.15,
             recovery_max: 4,
             maneuver_s: 0.0,
+            still_gain_m: 0.0,
             look_after_s: 3.0,
             look_s: 8.0,
             look_openings_only: true,
@@ -357,6 +364,7 @@ impl PlannerConfig {
             100.0,
         );
         r.check("planner.maneuver_s", self.maneuver_s, 0.0, 600.0);
+        r.check("planner.still_gain_m", self.still_gain_m, 0.0, 5.0);
         r.check(
             "planner.foliage_max_age_s",
             self.foliage_max_age_s,

@@ -51,6 +51,9 @@ pub enum DwaOutcome {
         /// False when the route knew no way from the robot to the goal: goal progress was the
         /// straight-line distance and the speed at most `planner.glass_slow_mps`.
         routed: bool,
+        /// How much nearer the goal the winning rollout comes at its nearest, m (by the route,
+        /// or the straight line without one): 0 for one that only leads away.
+        gain_m: f64,
     },
     /// No sampled trajectory is feasible: stop.
     Blocked,
@@ -370,8 +373,8 @@ fn search(
         pl.goal_weight * least_to_go.min(start_to_go) + pl.speed_weight * (max_v - v)
     };
     let n_w = pl.omega_samples.max(1);
-    // (v, ω, score, the sample's place in slowest-first order)
-    let mut best: Option<(f64, f64, f64, usize)> = None;
+    // (v, ω, score, the sample's place in slowest-first order, its gain)
+    let mut best: Option<(f64, f64, f64, usize, f64)> = None;
     for kv in (0..pl.v_samples.max(1)).rev() {
         let v = sample(v_lo, v_hi, kv, pl.v_samples);
         if prune && gear == Gear::Forward && best.is_some_and(|b| bound(v) > b.2) {
@@ -458,16 +461,17 @@ fn search(
             };
             let place = kv * n_w + kw;
             if best.is_none_or(|b| score < b.2 || (score == b.2 && place < b.3)) {
-                best = Some((v, w, score, place));
+                best = Some((v, w, score, place, start_to_go - closest));
             }
         }
     }
     match best {
-        Some((v, omega, score, _)) => DwaOutcome::Drive {
+        Some((v, omega, score, _, gain_m)) => DwaOutcome::Drive {
             v,
             omega,
             score,
             routed: !lost,
+            gain_m,
         },
         None => DwaOutcome::Blocked,
     }
@@ -710,8 +714,8 @@ pub(crate) mod tests {
             );
             let (all, pruned) = (run(false), run(true));
             let bits = |o: DwaOutcome| match o {
-                DwaOutcome::Drive { v, omega, score, routed } => {
-                    Some((v.to_bits(), omega.to_bits(), score.to_bits(), routed))
+                DwaOutcome::Drive { v, omega, score, routed, gain_m } => {
+                    Some((v.to_bits(), omega.to_bits(), score.to_bits(), routed, gain_m.to_bits()))
                 }
                 DwaOutcome::Blocked => None,
             };

@@ -19,6 +19,7 @@
 //! - **foliage**: the obstacles of a verdict no older than `planner.foliage_max_age_s` are solid
 //!   for the planner (DESIGN §8); an older verdict is ignored, and its alarm flag with it.
 
+use mimnav_shared::config::Body;
 use mimnav_shared::grid::GridSpec;
 use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
@@ -209,6 +210,14 @@ pub struct Pilot {
 /// Below these speeds (m/s, rad/s) a command holds the robot (nearly) still: a long body that
 /// cannot turn away creeps ever slower towards what holds it.
 const STILL: (f64, f64) = (0.03, 0.05);
+
+/// A long body is led away ([`crate::config::PlannerConfig::still_gain_m`]) only this far from
+/// the goal by the route, m: nearer, the goal itself bounds what a rollout can gain.
+const AWAY_FAR_M: f64 = 1.0;
+
+/// ... and only where the route is shorter this far behind the body (straight back or 45° to
+/// either side) than where it stands, m.
+const AWAY_LOOK_M: f32 = 0.5;
 /// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
 /// again from none.
 const PROGRESS_M: f64 = 0.5;
@@ -721,8 +730,27 @@ impl Pilot {
             self.params().recovery_ns(),
         );
         let max_tries = self.params().planner.recovery_max;
-        let still = matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
-            if v.abs() < STILL.0 && omega.abs() < STILL.1);
+        // a long body led only away from the goal (every rollout that gains nothing) is held
+        // as surely as one stopped: driving on, it passes the door it came for
+        let long = !matches!(self.params().robot.body(), Body::Round(_));
+        let still_gain_m = self.params().planner.still_gain_m;
+        // (not at the goal, where every rollout gains little; and only where the route's way
+        // lies behind the body: ahead, driving on may show the way it could not gain on yet)
+        let route = self.planner.route();
+        let here = route.value(0.0, 0.0);
+        let behind = [(-1.0f32, 0.0f32), (-0.707, 0.707), (-0.707, -0.707)]
+            .iter()
+            .map(|&(x, y)| route.value(AWAY_LOOK_M * x, AWAY_LOOK_M * y))
+            .fold(f32::INFINITY, f32::min);
+        let far = f64::from(here) > AWAY_FAR_M && behind < here;
+        let away = long
+            && far
+            && still_gain_m > 0.0
+            && matches!(*outcome, DwaOutcome::Drive { routed: true, gain_m, .. }
+                if gain_m < still_gain_m);
+        let still = away
+            || matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
+                if v.abs() < STILL.0 && omega.abs() < STILL.1);
         let b = &mut self.back_out;
         if !still || after == 0 {
             b.still_since = None;
@@ -730,7 +758,8 @@ impl Pilot {
         }
         let since = *b.still_since.get_or_insert(now);
         if now.saturating_sub(since) < after {
-            return None;
+            // led away: stand (the window's next plan starts from standing) rather than drive on
+            return away.then(|| Decision::drive(0.0, 0.0, flags, header));
         }
         b.still_since = None;
         if b.tries >= max_tries {

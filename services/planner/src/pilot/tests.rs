@@ -948,3 +948,58 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
         "without the maneuver, not there: ends at ({x:.2}, {y:.2})"
     );
 }
+
+/// Issue 22 item 4: Spot drives along a corridor 1.3 m wide past the door in its side to the
+/// room with the goal: the door lies behind its centre, and every forward rollout leads away
+/// from the goal. The dynamic window, which scores a rollout that gains nothing by its speed,
+/// drove on along the corridor; with `planner.still_gain_m` such a plan holds the body still,
+/// so it stands and, after `planner.recovery_after_s`, maneuvers into the room.
+#[test]
+fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
+    let wall = |d: f64| d.abs() < 0.05;
+    let class_at = |x: f64, y: f64| {
+        let door = (-1.1..-0.1).contains(&x);
+        let corridor_wall = wall(y - 0.75) && x < 5.0 || wall(y + 0.55) && !door && x < 5.0;
+        let ends = wall(x - 5.0) && (-0.55..0.75).contains(&y) || wall(x + 4.0);
+        let room = wall(y + 3.5) || wall(x - 4.0) && y < -0.55;
+        if corridor_wall || ends || room {
+            cell_class::SOLID
+        } else {
+            cell_class::FREE
+        }
+    };
+    let to = (-0.6, -2.3);
+    let mut params = PlannerParams::default();
+    (
+        params.robot.radius_m,
+        params.robot.length_m,
+        params.robot.width_m,
+        params.robot.max_linear_mps,
+        params.robot.max_angular_rps,
+    ) = (0.6, 1.1, 0.5, 0.6, 0.6);
+    params.planner.maneuver_s = 20.0;
+    params.planner.still_gain_m = 0.1;
+    let (path, flags) = drive_to(params.clone(), class_at, to, 60);
+    let farthest = |path: &[(f64, f64)]| path.iter().map(|p| p.0).fold(f64::MIN, f64::max);
+    assert!(
+        farthest(&path) < 0.5,
+        "stood instead of driving on: reached x = {:.2}",
+        farthest(&path)
+    );
+    assert!(
+        flags.iter().any(|f| f & command_flags::MANEUVERING != 0),
+        "a maneuver"
+    );
+    let (x, y) = *path.last().expect("a path");
+    assert!(
+        (x - to.0).hypot(y - to.1) < 0.35,
+        "the goal reached: ends at ({x:.2}, {y:.2})"
+    );
+    params.planner.still_gain_m = 0.0;
+    let (path, _) = drive_to(params, class_at, to, 60);
+    assert!(
+        farthest(&path) > 1.0,
+        "without it, drove on along the corridor: reached x = {:.2}",
+        farthest(&path)
+    );
+}
