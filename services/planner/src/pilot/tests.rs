@@ -884,27 +884,29 @@ fn a_stretch_the_robot_stands_before_is_given_up_for_another_way() {
     assert_eq!(at(&mut p, dt + 1200 * MS), straight);
 }
 
-/// Issue 22 item 4: Spot has come to the dead end of a corridor 1.3 m wide, past the door in
-/// its side to the room with the goal, nearer the door's wall than its corners need to turn on
-/// the spot. The dynamic window holds it still; after `planner.recovery_after_s` it follows a
-/// way out by moves back and turns on the spot (flag `MANEUVERING`) into the room, and reaches
-/// the goal without its body ever overlapping a wall. Without the maneuver (`maneuver_s` 0,
-/// the default) it backs out as before and does not get there in the same time.
-#[test]
-fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
-    let wall = |d: f64| d.abs() < 0.05;
-    let class_at = |x: f64, y: f64| {
+/// A corridor 1.3 m wide along x (walls at y = 0.75 and −0.55) ending at `end_x`, with a door
+/// 1 m wide in its right wall behind the start (x from −1.1 to −0.1) into a room below it; the
+/// robot starts at the origin headed along the corridor.
+fn side_door_corridor(end_x: f64) -> impl Fn(f64, f64) -> u8 + Copy {
+    move |x: f64, y: f64| {
+        let wall = |d: f64| d.abs() < 0.05;
         let door = (-1.1..-0.1).contains(&x);
-        let corridor_wall = wall(y - 0.75) && x < 1.0 || wall(y + 0.55) && !door && x < 1.0;
-        let ends = wall(x - 1.0) && (-0.55..0.75).contains(&y) || wall(x + 4.0);
+        let corridor_wall = wall(y - 0.75) && x < end_x || wall(y + 0.55) && !door && x < end_x;
+        let ends = wall(x - end_x) && (-0.55..0.75).contains(&y) || wall(x + 4.0);
         let room = wall(y + 3.5) || wall(x - 4.0) && y < -0.55;
         if corridor_wall || ends || room {
             cell_class::SOLID
         } else {
             cell_class::FREE
         }
-    };
-    let to = (-0.6, -2.3);
+    }
+}
+
+/// The goal in [`side_door_corridor`]'s room.
+const SIDE_ROOM_GOAL: (f64, f64) = (-0.6, -2.3);
+
+/// Spot's body (1.1 × 0.5 m) and speeds on the default parameters.
+fn spot_params() -> PlannerParams {
     let mut params = PlannerParams::default();
     (
         params.robot.radius_m,
@@ -913,6 +915,20 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
         params.robot.max_linear_mps,
         params.robot.max_angular_rps,
     ) = (0.6, 1.1, 0.5, 0.6, 0.6);
+    params
+}
+
+/// Issue 22 item 4: Spot has come to the dead end of a corridor 1.3 m wide, past the door in
+/// its side to the room with the goal, nearer the door's wall than its corners need to turn on
+/// the spot. The dynamic window holds it still; after `planner.recovery_after_s` it follows a
+/// way out by moves back and turns on the spot (flag `MANEUVERING`) into the room, and reaches
+/// the goal without its body ever overlapping a wall. Without the maneuver (`maneuver_s` 0,
+/// the default) it backs out as before and does not get there in the same time.
+#[test]
+fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
+    let class_at = side_door_corridor(1.0);
+    let to = SIDE_ROOM_GOAL;
+    let mut params = spot_params();
     params.planner.maneuver_s = 20.0;
     let body = params.robot.body();
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
@@ -956,27 +972,9 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
 /// so it stands and, after `planner.recovery_after_s`, maneuvers into the room.
 #[test]
 fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
-    let wall = |d: f64| d.abs() < 0.05;
-    let class_at = |x: f64, y: f64| {
-        let door = (-1.1..-0.1).contains(&x);
-        let corridor_wall = wall(y - 0.75) && x < 5.0 || wall(y + 0.55) && !door && x < 5.0;
-        let ends = wall(x - 5.0) && (-0.55..0.75).contains(&y) || wall(x + 4.0);
-        let room = wall(y + 3.5) || wall(x - 4.0) && y < -0.55;
-        if corridor_wall || ends || room {
-            cell_class::SOLID
-        } else {
-            cell_class::FREE
-        }
-    };
-    let to = (-0.6, -2.3);
-    let mut params = PlannerParams::default();
-    (
-        params.robot.radius_m,
-        params.robot.length_m,
-        params.robot.width_m,
-        params.robot.max_linear_mps,
-        params.robot.max_angular_rps,
-    ) = (0.6, 1.1, 0.5, 0.6, 0.6);
+    let class_at = side_door_corridor(5.0);
+    let to = SIDE_ROOM_GOAL;
+    let mut params = spot_params();
     params.planner.maneuver_s = 20.0;
     params.planner.still_gain_m = 0.1;
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
