@@ -148,10 +148,11 @@ pub struct PlannerConfig {
     /// tune worlds it changed no total, docs/glass.md; a round body never needs it).
     pub maneuver_s: f64,
     /// A long body whose best forward plan comes less than this much nearer the goal by the
-    /// route (every rollout leads away: a door in the side of a corridor it is driving past,
-    /// seen open only behind it) is held still as a plan that stops it is, so that after
-    /// `recovery_after_s` it maneuvers or backs out instead of driving on away from the
-    /// goal, m (0: never; a round body never, it turns on the spot).
+    /// route, while the route is shorter 0.5 m behind it than where it stands and the goal is
+    /// more than 1 m away (every rollout leads away: a door in the side of a corridor it is
+    /// driving past, seen open only behind it), stands and is held still as a plan that stops
+    /// it is, so that after `recovery_after_s` it maneuvers or backs out instead of driving on
+    /// away from the goal, m (0: never, the default; a round body never, it turns on the spot).
     pub still_gain_m: f64,
     /// A robot whose route has led it no nearer the goal for this long, the route running into
     /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past

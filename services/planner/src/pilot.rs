@@ -211,12 +211,11 @@ pub struct Pilot {
 /// cannot turn away creeps ever slower towards what holds it.
 const STILL: (f64, f64) = (0.03, 0.05);
 
-/// A long body is led away ([`crate::config::PlannerConfig::still_gain_m`]) only this far from
-/// the goal by the route, m: nearer, the goal itself bounds what a rollout can gain.
+/// A long body counts as led away ([`crate::config::PlannerConfig::still_gain_m`]) only
+/// farther than this from the goal by the route, m.
 const AWAY_FAR_M: f64 = 1.0;
 
-/// ... and only where the route is shorter this far behind the body (straight back or 45° to
-/// either side) than where it stands, m.
+/// How far behind the body the route is looked at for a way shorter than where it stands, m.
 const AWAY_LOOK_M: f32 = 0.5;
 /// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
 /// again from none.
@@ -710,6 +709,20 @@ impl Pilot {
         self.step_back(grid, v0_omega0, goal, flags, header)
     }
 
+    /// The route's way lies behind the body, away from the goal: more than [`AWAY_FAR_M`] from
+    /// it (nearer, the goal itself bounds what a rollout can gain), and shorter [`AWAY_LOOK_M`]
+    /// straight back or 45° to either side than where the body stands (ahead, driving on may
+    /// show the way it could not gain on yet).
+    fn route_lies_behind(&self) -> bool {
+        let route = self.planner.route();
+        let here = route.value(0.0, 0.0);
+        let behind = [(-1.0f32, 0.0f32), (-0.707, 0.707), (-0.707, -0.707)]
+            .iter()
+            .map(|&(x, y)| route.value(AWAY_LOOK_M * x, AWAY_LOOK_M * y))
+            .fold(f32::INFINITY, f32::min);
+        f64::from(here) > AWAY_FAR_M && behind < here
+    }
+
     /// After a forward plan: when it held the robot still for `planner.recovery_after_s`, the
     /// first step of backing out (or, after `planner.recovery_max` tries without progress, the
     /// `blocked` stop); `None` to send the plan as it is.
@@ -732,22 +745,12 @@ impl Pilot {
         let max_tries = self.params().planner.recovery_max;
         // a long body led only away from the goal (every rollout that gains nothing) is held
         // as surely as one stopped: driving on, it passes the door it came for
-        let long = !matches!(self.params().robot.body(), Body::Round(_));
         let still_gain_m = self.params().planner.still_gain_m;
-        // (not at the goal, where every rollout gains little; and only where the route's way
-        // lies behind the body: ahead, driving on may show the way it could not gain on yet)
-        let route = self.planner.route();
-        let here = route.value(0.0, 0.0);
-        let behind = [(-1.0f32, 0.0f32), (-0.707, 0.707), (-0.707, -0.707)]
-            .iter()
-            .map(|&(x, y)| route.value(AWAY_LOOK_M * x, AWAY_LOOK_M * y))
-            .fold(f32::INFINITY, f32::min);
-        let far = f64::from(here) > AWAY_FAR_M && behind < here;
-        let away = long
-            && far
-            && still_gain_m > 0.0
+        let away = still_gain_m > 0.0
+            && !matches!(self.params().robot.body(), Body::Round(_))
             && matches!(*outcome, DwaOutcome::Drive { routed: true, gain_m, .. }
-                if gain_m < still_gain_m);
+                if gain_m < still_gain_m)
+            && self.route_lies_behind();
         let still = away
             || matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
                 if v.abs() < STILL.0 && omega.abs() < STILL.1);
