@@ -286,6 +286,9 @@ fn a_contact_with_a_pane_no_beam_could_show_is_reported_as_never_faced() {
     assert_eq!(episode["ending"], "contact", "{out}");
     assert_eq!(episode["touched_kind"], "glass never faced", "{out}");
     assert!(episode["touched_faced_s"].is_null(), "{out}");
+    // it stopped at the screen's near end, 2.5 m along a 6 m way: about 3 m short of the goal
+    let left = episode["goal_left_m"].as_f64().expect("goal_left_m");
+    assert!((2.0..4.0).contains(&left), "goal_left_m {left}: {out}");
     assert!(
         out.lines()
             .any(|l| l.starts_with("| hand-made | adaptive | 1 | 0 | 0 | 0 | 1 | 0 | 0 |")),

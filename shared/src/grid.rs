@@ -20,31 +20,23 @@ impl GridSpec {
     /// The cell holding robot-frame point (x, y), if inside the grid.
     #[inline]
     pub fn cell_of(&self, x: f32, y: f32) -> Option<(usize, usize)> {
-        let h = self.half_extent_m();
-        // one reciprocal, which the compiler hoists out of a caller's loop: no division per point
-        let inv = 1.0 / self.cell_m;
-        let r = (x + h) * inv;
-        let c = (y + h) * inv;
-        // (a grid wider than a u32 counts cannot be allocated; the bound keeps the conversion
-        // below sound regardless)
-        let n = self.cells.min(u32::MAX as usize) as f32;
-        // truncation is the floor for the non-negative values that pass the test (and NaN fails)
-        // (one branch, not four: whether a far return falls on the grid is hard to predict)
-        if (r >= 0.0) & (c >= 0.0) & (r < n) & (c < n) {
-            // SAFETY: r and c are finite and in [0, n) with n ≤ 2^32, so they truncate to a
-            // u32 (a saturating `as` costs the caller's hottest loops a tenth of their
-            // instructions)
-            Some(unsafe {
-                (
-                    r.to_int_unchecked::<u32>() as usize,
-                    c.to_int_unchecked::<u32>() as usize,
-                )
-            })
-        } else {
-            None
-        }
+        self.locator().cell_of(x, y)
     }
 
+    /// What [`cell_of`](Self::cell_of) computes from the grid, computed once: for a loop over
+    /// many points (the same cells, bit for bit).
+    #[inline]
+    pub fn locator(&self) -> Locator {
+        Locator {
+            half_m: self.half_extent_m(),
+            // one reciprocal: no division per point
+            inv_cell: 1.0 / self.cell_m,
+            // (a grid wider than a u32 counts cannot be allocated; the bound keeps the
+            // conversion in `cell_of` sound regardless)
+            cells_f: self.cells.min(u32::MAX as usize) as f32,
+            cells: self.cells,
+        }
+    }
     /// Robot-frame centre of cell (r, c).
     #[inline]
     pub fn center_of(&self, r: usize, c: usize) -> (f32, f32) {
@@ -69,6 +61,46 @@ impl GridSpec {
     /// True for a grid without cells.
     pub fn is_empty(&self) -> bool {
         self.cells == 0
+    }
+}
+
+/// A grid's cell look-up with its constants computed ([`GridSpec::locator`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Locator {
+    half_m: f32,
+    inv_cell: f32,
+    cells_f: f32,
+    cells: usize,
+}
+
+impl Locator {
+    /// The cell holding robot-frame point (x, y), if inside the grid: [`GridSpec::cell_of`].
+    #[inline]
+    pub fn cell_of(&self, x: f32, y: f32) -> Option<(usize, usize)> {
+        let r = (x + self.half_m) * self.inv_cell;
+        let c = (y + self.half_m) * self.inv_cell;
+        let n = self.cells_f;
+        // truncation is the floor for the non-negative values that pass the test (and NaN fails)
+        // (one branch, not four: whether a far return falls on the grid is hard to predict)
+        if (r >= 0.0) & (c >= 0.0) & (r < n) & (c < n) {
+            // SAFETY: r and c are finite and in [0, n) with n ≤ 2^32, so they truncate to a
+            // u32 (a saturating `as` costs the caller's hottest loops a tenth of their
+            // instructions)
+            Some(unsafe {
+                (
+                    r.to_int_unchecked::<u32>() as usize,
+                    c.to_int_unchecked::<u32>() as usize,
+                )
+            })
+        } else {
+            None
+        }
+    }
+
+    /// The row-major index of the cell holding (x, y), if inside the grid.
+    #[inline]
+    pub fn index_of(&self, x: f32, y: f32) -> Option<usize> {
+        self.cell_of(x, y).map(|(r, c)| r * self.cells + c)
     }
 }
 
@@ -138,6 +170,11 @@ mod tests {
         for (i, &x) in some.iter().enumerate() {
             let y = some[(i * 7 + 3) % some.len()];
             assert_eq!(g.cell_of(x, y), reference(x, y), "({x}, {y})");
+            assert_eq!(
+                g.locator().index_of(x, y),
+                reference(x, y).map(|(r, c)| g.index(r, c)),
+                "({x}, {y})"
+            );
         }
     }
 }

@@ -245,7 +245,7 @@ pub struct Mapper {
     redo: Vec<u32>,
     /// Glass detected in this revolution (cell indices, sorted, unique).
     glass_cells: Vec<usize>,
-    reach: Vec<f32>,
+    reach: Box<[f32; REACH_BINS]>,
     cell_range: Vec<f32>,
     cell_bin: Vec<u16>,
     classes: Vec<u8>,
@@ -294,6 +294,8 @@ pub struct Mapper {
     /// their window along the ring is whole.
     flat: Vec<(u32, f32)>,
     spikes: Vec<bool>,
+    /// Scratch: the slice being binned, each point de-skewed and its cell looked up.
+    placed: Vec<Placed>,
     /// How the revolution being binned is de-skewed.
     deskew: Deskew,
     /// What the revolution being binned has found so far.
@@ -386,7 +388,7 @@ impl Mapper {
             slice_end: 0,
             redo: Vec::new(),
             glass_cells: Vec::new(),
-            reach: vec![0.0; REACH_BINS],
+            reach: Box::new([0.0; REACH_BINS]),
             cell_range,
             cell_bin,
             classes: vec![cell_class::UNKNOWN; n2],
@@ -411,6 +413,7 @@ impl Mapper {
             last_counted: vec![0; 16],
             flat: Vec::new(),
             spikes: Vec::new(),
+            placed: Vec::new(),
             deskew: Deskew::default(),
             stats: UpdateStats::default(),
             params,
@@ -660,38 +663,55 @@ impl Mapper {
             self.params.robot.mount.x_m as f32,
             self.params.robot.mount.y_m as f32,
         );
-        for (k, p0) in points.iter().enumerate() {
-            // the cell a few points ahead is fetched into the cache while this one is binned:
-            // in grass most cells a revolution touches are no longer cached since the last
-            // one, and waiting for their layers and evidence was a third of the binning. The
-            // point before its de-skew (a few centimetres off) is near enough for a hint.
-            if let Some(q) = points.get(k + PREFETCH_AHEAD)
-                && let Some((r, c)) = grid.cell_of(q.x, q.y)
-            {
-                let i = grid.index(r, c);
+        // first pass: each point de-skewed and its cell looked up once — the pair cues read the
+        // next point's, and the cells are asked into the cache here, a slice ahead of the
+        // second pass (in grass most cells a revolution touches are no longer cached since the
+        // last one, and waiting for their layers and evidence was a third of the binning)
+        let locator = grid.locator();
+        let mut placed = std::mem::take(&mut self.placed);
+        placed.clear();
+        placed.extend(points.iter().map(|p| {
+            let mut az_cdeg = i32::from(p.azimuth_cdeg);
+            let (mut th, mut shift) = (0.0f32, 0.0f32);
+            if deskew {
+                let dt = (i64::from(t_ref_ns) - i64::from(p.time_offset_ns)) as f32 * 1e-9;
+                th = omega * dt;
+                shift = v * dt;
+                // (saturating: an absurd rate must not overflow)
+                az_cdeg = az_cdeg.saturating_add((th.to_degrees() * 100.0) as i32);
+            }
+            // (an azimuth past a turn from a damaged point too)
+            let az_cdeg = wrap_cdeg(az_cdeg);
+            let (sin_t, cos_t) = small_angle(th);
+            let x = p.x - shift;
+            let (x, y) = (cos_t * x + sin_t * p.y, -sin_t * x + cos_t * p.y);
+            let cell = locator.index_of(x, y).map_or(NO_CELL, |i| i as u32);
+            if cell != NO_CELL {
+                let i = cell as usize;
                 // both ends: a cell's layers (and its evidence) may straddle two cache lines
                 prefetch(&self.layer, i * m);
                 prefetch(&self.layer, i * m + m.saturating_sub(1));
                 prefetch(&self.evidence, i);
             }
-            let mut p = *p0;
-            let mut az_cdeg = p.azimuth_cdeg;
-            let (mut sin_t, mut cos_t, mut shift) = (0.0f32, 1.0f32, 0.0f32);
-            if deskew {
-                let dt = (i64::from(t_ref_ns) - i64::from(p.time_offset_ns)) as f32 * 1e-9;
-                let th = omega * dt;
-                (sin_t, cos_t, shift) = (th, 1.0 - 0.5 * th * th, v * dt);
-                az_cdeg = ((i32::from(az_cdeg) + (th.to_degrees() * 100.0) as i32)
-                    .rem_euclid(36000)) as u16;
+            Placed {
+                x,
+                y,
+                th,
+                shift,
+                cell,
+                az_cdeg,
             }
-            let undistort = |q: &Point| -> (f32, f32) {
-                let x = q.x - shift;
-                (cos_t * x + sin_t * q.y, -sin_t * x + cos_t * q.y)
-            };
-            (p.x, p.y) = undistort(p0);
+        }));
+        for (k, (p0, pl)) in points.iter().zip(&placed).enumerate() {
+            let mut p = *p0;
+            let az_cdeg = pl.az_cdeg;
+            let (sin_t, cos_t) = small_angle(pl.th);
+            let shift = pl.shift;
+            (p.x, p.y) = (pl.x, pl.y);
             let p = &p;
             let horizontal = (p.x * p.x + p.y * p.y).sqrt();
-            let bin = usize::from(az_cdeg / 50) % REACH_BINS;
+            // (the azimuth is below 36 000: the bin is below REACH_BINS)
+            let bin = usize::from(az_cdeg / 50).min(REACH_BINS - 1);
             self.reach[bin] = self.reach[bin].max(horizontal);
             let d = p.distance_m().max(1e-3);
             let sin_el = p.z / d;
@@ -718,21 +738,22 @@ impl Mapper {
             // let the beam through
             if p.return_type == return_type::LAST
                 && let Some(q) = points.get(k + 1)
+                && let Some(ql) = placed.get(k + 1)
                 && q.return_type == return_type::STRONGEST
                 && q.laser_id == p.laser_id
                 && q.azimuth_cdeg == p.azimuth_cdeg
             {
-                // both returns of a pair share the firing time, so the de-skew
+                // the nearer and the farther return's cells (NO_CELL: off the grid)
                 let q_nearer = q.distance_raw < p.distance_raw;
-                let (near, near_i, far) = if q_nearer {
-                    (undistort(q), q.intensity, (p.x, p.y))
+                let (near_cell, near_i, far_cell) = if q_nearer {
+                    (ql.cell, q.intensity, pl.cell)
                 } else {
-                    ((p.x, p.y), p.intensity, undistort(q))
+                    (pl.cell, p.intensity, ql.cell)
                 };
                 let gap = (q.distance_m() - p.distance_m()).abs();
                 if gap > 1.5 * grid.cell_m {
-                    if let Some((nr, nc)) = grid.cell_of(near.0, near.1) {
-                        let ni = grid.index(nr, nc);
+                    if near_cell != NO_CELL {
+                        let ni = near_cell as usize;
                         touch(&mut self.state, &mut self.touched, &mut self.redo, ni);
                         let near_z = if q_nearer { q.z } else { p.z };
                         let e = &mut self.evidence[ni];
@@ -747,27 +768,24 @@ impl Mapper {
                     if q_nearer
                         && u16::from(p.intensity) > 3 * u16::from(q.intensity)
                         && p.intensity >= opaque_min
-                        && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
+                        && far_cell != NO_CELL
                     {
-                        let fi = grid.index(fr, fc);
+                        let fi = far_cell as usize;
                         touch(&mut self.state, &mut self.touched, &mut self.redo, fi);
                         self.evidence[fi].stopped = self.evidence[fi].stopped.saturating_add(1);
                     }
                 }
                 // a weak echo just behind a bright one is the inside of the same object
-                if gap <= INSIDE_M
-                    && f32::from(near_i) > gamma_abs
-                    && let Some((fr, fc)) = grid.cell_of(far.0, far.1)
-                {
-                    let fi = grid.index(fr, fc);
+                if gap <= INSIDE_M && f32::from(near_i) > gamma_abs && far_cell != NO_CELL {
+                    let fi = far_cell as usize;
                     touch(&mut self.state, &mut self.touched, &mut self.redo, fi);
                     self.evidence[fi].inside = self.evidence[fi].inside.saturating_add(1);
                 }
             }
-            let cell = if p.z < ground_z {
+            let cell = if p.z < ground_z || pl.cell == NO_CELL {
                 None
             } else {
-                grid.cell_of(p.x, p.y).map(|(r, c)| grid.index(r, c))
+                Some(pl.cell as usize)
             };
             // one return per firing for the surface cue, on downward rings only (a laser's
             // elevation is fixed: its ring is all downward or all upward): the last (or only)
@@ -817,6 +835,7 @@ impl Mapper {
                 ));
             }
         }
+        self.placed = placed;
     }
 
     /// Glass in this revolution: spikes along the near-horizontal rings (Algorithm 1 of
@@ -1675,9 +1694,44 @@ fn touch(state: &mut [u8], touched: &mut Vec<u32>, redo: &mut Vec<u32>, i: usize
     }
 }
 
-/// How many points ahead [`Mapper::bin`] fetches a cell: the binning of one point is a few
-/// hundred instructions, so a handful ahead is about a cache miss's time (measured: 8 and 24 alike).
-const PREFETCH_AHEAD: usize = 8;
+/// One point of the slice being binned, as [`Mapper::bin`]'s first pass leaves it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Placed {
+    /// De-skewed position, robot frame at the revolution's reference time, m.
+    x: f32,
+    y: f32,
+    /// The de-skew's rotation (rad, small angle) and shift along x (m) from the firing time.
+    th: f32,
+    shift: f32,
+    /// The grid cell of (x, y) (the ground not tested), or [`NO_CELL`] off the grid.
+    cell: u32,
+    /// Azimuth, de-skewed, hundredths of a degree in [0, 36000).
+    az_cdeg: u16,
+}
+
+/// The small-angle rotation the de-skew uses (exact enough below 0.3 rad): (sin, cos).
+#[inline(always)]
+fn small_angle(th: f32) -> (f32, f32) {
+    (th, 1.0 - 0.5 * th * th)
+}
+
+/// An azimuth in hundredths of a degree brought into [0, 36000): `rem_euclid(36000)`, without
+/// the division where it is already no more than one turn off (a de-skew's few degrees).
+#[inline(always)]
+fn wrap_cdeg(a: i32) -> u16 {
+    let a = if a < 0 {
+        a + 36000
+    } else if a >= 36000 {
+        a - 36000
+    } else {
+        a
+    };
+    if (0..36000).contains(&a) {
+        a as u16
+    } else {
+        a.rem_euclid(36000) as u16
+    }
+}
 
 /// Asks the processor to bring `s[i]` into the cache; nothing where it cannot, or `i` is out of
 /// bounds. A hint only: what the program computes does not change.

@@ -879,3 +879,29 @@ fn a_lone_solid_among_passable_cells_is_passable_unless_found_there_again() {
     m.update(&other, OdomInput::Missing, 200_000_000);
     assert_eq!(class_at(&m, speck.0, speck.1 + 0.1), cell_class::PASSABLE);
 }
+
+/// The binning's azimuth wrap is `rem_euclid(36000)` for every azimuth, the de-skew's few
+/// degrees either side of a turn and a damaged point's far beyond it alike.
+#[test]
+fn an_azimuth_wraps_into_one_turn_as_rem_euclid_does() {
+    let mut some = vec![
+        0,
+        1,
+        -1,
+        35_999,
+        36_000,
+        36_001,
+        -36_000,
+        -36_001,
+        71_999,
+        72_000,
+        -72_001,
+        i32::MAX,
+        i32::MIN,
+        i32::MIN + 1,
+    ];
+    some.extend((-40_000..110_000).step_by(7));
+    for a in some {
+        assert_eq!(i32::from(wrap_cdeg(a)), a.rem_euclid(36_000), "{a}");
+    }
+}

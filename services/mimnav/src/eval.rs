@@ -207,6 +207,9 @@ pub struct Episode {
     pub path_m: f64,
     /// Straight distance from the start to the goal circle (sim.goal_tolerance_m), m.
     pub straight_m: f64,
+    /// Straight distance from where the robot ended to the goal circle, m (0 on reaching it):
+    /// how near a run that timed out, froze or touched came.
+    pub goal_left_m: f64,
     /// Simulated time, s.
     pub elapsed_s: f64,
     /// Map scores, summed.
@@ -273,6 +276,7 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
         ending: Ending::Timeout,
         path_m: 0.0,
         straight_m,
+        goal_left_m: 0.0,
         elapsed_s: 0.0,
         score: MapScore::default(),
         revolutions: 0,
@@ -312,6 +316,9 @@ pub fn run_episode(config: &Config, scene: &Scene, method: Method, seed: u64) ->
     }
     let sim = run.sim();
     episode.path_m = sim.path_length_m();
+    let end = sim.base().pose;
+    episode.goal_left_m =
+        ((goal[0] - end.x()).hypot(goal[1] - end.y()) - config.sim.goal_tolerance_m).max(0.0);
     episode.elapsed_s = sim.elapsed_s();
     episode.ending = match sim.outcome() {
         Outcome::GoalReached => Ending::Success,
@@ -583,6 +590,7 @@ pub fn run(config: &Config, args: &EvalArgs) -> Result<ExitCode> {
                 "ending": e.ending.name(),
                 "path_m": e.path_m,
                 "straight_m": e.straight_m,
+                "goal_left_m": e.goal_left_m,
                 "elapsed_s": e.elapsed_s,
                 "revolutions": e.revolutions,
                 "blocked": e.blocked,

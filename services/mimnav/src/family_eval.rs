@@ -264,6 +264,7 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
                 "ending": e.ending.name(),
                 "success": success,
                 "path_m": e.path_m,
+                "goal_left_m": e.goal_left_m,
                 "elapsed_s": e.elapsed_s,
                 "revolutions": e.revolutions,
                 "blocked": e.blocked,
