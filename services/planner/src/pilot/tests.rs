@@ -932,15 +932,7 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
     params.planner.maneuver_s = 20.0;
     let body = params.robot.body();
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
-    assert!(
-        flags.iter().any(|f| f & command_flags::MANEUVERING != 0),
-        "a maneuver"
-    );
-    let (x, y) = *path.last().expect("a path");
-    assert!(
-        (x - to.0).hypot(y - to.1) < 0.35,
-        "the goal reached: ends at ({x:.2}, {y:.2})"
-    );
+    assert_maneuvered_to(&path, &flags, to);
     // the body (as the drive's poses put it: heading from consecutive positions is not kept,
     // so its centre) never on a wall cell: a wall's cell centre is at least the half width away
     let g = grid();
@@ -965,6 +957,19 @@ fn a_long_body_past_a_side_door_maneuvers_into_the_room() {
     );
 }
 
+/// A drive that maneuvered (flag `MANEUVERING` in some command) and ended at the goal `to`.
+fn assert_maneuvered_to(path: &[(f64, f64)], flags: &[u8], to: (f64, f64)) {
+    assert!(
+        flags.iter().any(|f| f & command_flags::MANEUVERING != 0),
+        "a maneuver"
+    );
+    let (x, y) = *path.last().expect("a path");
+    assert!(
+        (x - to.0).hypot(y - to.1) < 0.35,
+        "the goal reached: ends at ({x:.2}, {y:.2})"
+    );
+}
+
 /// Issue 22 item 4: Spot drives along a corridor 1.3 m wide past the door in its side to the
 /// room with the goal: the door lies behind its centre, and every forward rollout leads away
 /// from the goal. The dynamic window, which scores a rollout that gains nothing by its speed,
@@ -984,15 +989,7 @@ fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
         "stood instead of driving on: reached x = {:.2}",
         farthest(&path)
     );
-    assert!(
-        flags.iter().any(|f| f & command_flags::MANEUVERING != 0),
-        "a maneuver"
-    );
-    let (x, y) = *path.last().expect("a path");
-    assert!(
-        (x - to.0).hypot(y - to.1) < 0.35,
-        "the goal reached: ends at ({x:.2}, {y:.2})"
-    );
+    assert_maneuvered_to(&path, &flags, to);
     params.planner.still_gain_m = 0.0;
     let (path, _) = drive_to(params, class_at, to, 60);
     assert!(
