@@ -141,9 +141,17 @@ fn gap_world(dir: &Path, gap: f64) -> PathBuf {
 fn reachability_agrees_with_gaps_measured_by_hand() {
     let dir = scratch("gaps");
     // Turtlebot 2: round, 0.40 m across; Spot: a 1.1 × 0.5 m body, through lengthwise
-    for (robot, narrow, wide) in [("turtlebot2", 0.36, 0.44), ("spot", 0.45, 0.58)] {
+    // a map cell (0.05 m) to spare each side: the Turtlebot 2 from 0.50 m, Spot from 0.60 m
+    for (robot, narrow, wide, roomy) in [
+        ("turtlebot2", 0.36, 0.44, 0.56),
+        ("spot", 0.45, 0.58, 0.66),
+    ] {
         let set = format!("robot.profile={robot}");
-        for (gap, want) in [(narrow, "impassable"), (wide, "passable")] {
+        for (gap, want) in [
+            (narrow, "impassable;"),
+            (wide, "passable, with less than a map cell to spare somewhere;"),
+            (roomy, "passable, with a map cell to spare each side;"),
+        ] {
             let p = gap_world(&dir, gap);
             let out = ok(&mimnav(&[
                 "--set",
@@ -153,7 +161,7 @@ fn reachability_agrees_with_gaps_measured_by_hand() {
                 p.to_str().expect("utf-8"),
             ]));
             assert!(
-                out.contains(&format!("well-formed, {want};")),
+                out.contains(&format!("well-formed, {want}")),
                 "{robot}, gap {gap}: {out}"
             );
         }
@@ -237,6 +245,8 @@ fn eval_over_a_generated_set_reports_every_family() {
     for e in &episodes {
         let success = e["success"].as_bool().expect("success");
         let ending = e["ending"].as_str().expect("ending");
+        // a map cell to spare each side only where the body passes at all
+        assert!(e["passable"] == true || e["cell_to_spare"] == false, "{e}");
         if e["passable"] == true {
             assert_eq!(success, ending == "success", "{e}");
         } else {
@@ -249,6 +259,11 @@ fn eval_over_a_generated_set_reports_every_family() {
         .find(|r| r["family"] == "hand-made")
         .expect("hand-made row");
     assert_eq!(n(hand, "worlds_impassable"), 1, "{hand}");
+    assert_eq!(n(hand, "roomy_episodes"), 0, "{hand}");
+    for r in &rows {
+        assert!(n(r, "reached_roomy") <= n(r, "roomy_episodes"), "{r}");
+        assert!(n(r, "roomy_episodes") <= n(r, "passable_episodes"), "{r}");
+    }
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -26,6 +26,9 @@ struct World {
     source: String,
     scene: Scene,
     passable: bool,
+    /// Passable with the body grown by a map cell on every side too
+    /// ([`crate::worlds::passable_with_a_cell_to_spare`]); false when impassable.
+    roomy: bool,
 }
 
 /// Per family and method: what the table shows.
@@ -40,6 +43,10 @@ struct Row {
     successes: usize,
     passable_episodes: usize,
     reached: usize,
+    /// Episodes on passable worlds with a map cell to spare each side, and those that reached
+    /// the goal.
+    roomy_episodes: usize,
+    reached_roomy: usize,
     contacts_passable: usize,
     froze_passable: usize,
     timeout_passable: usize,
@@ -95,12 +102,13 @@ fn worlds(config: &Config, args: &EvalArgs) -> Result<Vec<World>> {
             scene.time_limit_s = scene.time_limit_s.min(cap);
         }
         let passable = crate::worlds::passable(config, &scene).reachable;
-        (scene, passable)
+        let roomy = passable && crate::worlds::passable_with_a_cell_to_spare(config, &scene);
+        (scene, passable, roomy)
     });
     Ok(loaded
         .into_iter()
         .zip(verdicts)
-        .map(|((source, w), (scene, passable))| World {
+        .map(|((source, w), (scene, passable, roomy))| World {
             family: w
                 .generated
                 .as_ref()
@@ -108,6 +116,7 @@ fn worlds(config: &Config, args: &EvalArgs) -> Result<Vec<World>> {
             source,
             scene,
             passable,
+            roomy,
         })
         .collect())
 }
@@ -166,6 +175,10 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
             Some(Touched::Solid) => row.contacts_solid += 1,
             None => {}
         }
+        if world.roomy {
+            row.roomy_episodes += 1;
+            row.reached_roomy += usize::from(e.ending == Ending::Success);
+        }
         if world.passable {
             row.passable_episodes += 1;
             match e.ending {
@@ -197,18 +210,19 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
         crate::worlds::robot_label(config),
     )?;
     outln!(
-        "| family | method | worlds passable / impassable | success | passable: goal reached | passable: contact / froze / timeout | impassable: no contact | impassable: contact |"
+        "| family | method | worlds passable / impassable | success | passable: goal reached | ... with a map cell to spare each side | passable: contact / froze / timeout | impassable: no contact | impassable: contact |"
     )?;
-    outln!("|---|---|---|---|---|---|---|---|")?;
+    outln!("|---|---|---|---|---|---|---|---|---|")?;
     for row in rows.values() {
         outln!(
-            "| {} | {} | {} / {} | {} | {} | {} / {} / {} | {} | {} |",
+            "| {} | {} | {} / {} | {} | {} | {} | {} / {} / {} | {} | {} |",
             row.family,
             row.method,
             row.worlds_passable,
             row.worlds_impassable,
             pct(row.successes, row.episodes),
             pct(row.reached, row.passable_episodes),
+            pct(row.reached_roomy, row.roomy_episodes),
             row.contacts_passable,
             row.froze_passable,
             row.timeout_passable,
@@ -259,6 +273,7 @@ pub fn run(config: &Config, args: &EvalArgs, methods: &[Method]) -> Result<ExitC
                 "source": world.source,
                 "robot": robot,
                 "passable": world.passable,
+                "cell_to_spare": world.roomy,
                 "method": m.key(),
                 "seed": seed,
                 "ending": e.ending.name(),

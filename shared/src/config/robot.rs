@@ -143,6 +143,18 @@ impl Body {
         }
     }
 
+    /// The body with `by_m` more on every side: a round one's radius, a rectangle's length and
+    /// width by twice it (what keeping `by_m` from everything asks of the world), m.
+    pub fn grown(&self, by_m: f64) -> Body {
+        match *self {
+            Body::Round(r) => Body::Round(r + by_m),
+            Body::Rectangle { length_m, width_m } => Body::Rectangle {
+                length_m: length_m + 2.0 * by_m,
+                width_m: width_m + 2.0 * by_m,
+            },
+        }
+    }
+
     /// Half the narrowest gap the body passes through driving straight, m.
     pub fn half_width_m(&self) -> f64 {
         match *self {
@@ -275,6 +287,22 @@ mod tests {
         Body::Rectangle {
             length_m: 1.1,
             width_m: 0.5,
+        }
+    }
+
+    #[test]
+    fn a_grown_body_keeps_that_much_more_on_every_side() {
+        let by = 0.05;
+        for body in [spot(), Body::Round(0.2)] {
+            let g = body.grown(by);
+            // a point on the body's outline lies `by` inside the grown one's, on every side
+            for (x, y) in [(0.55, 0.0), (0.0, 0.25), (-0.55, 0.1), (0.2, -0.25), (0.2, 0.0)] {
+                let (d, dg) = (body.signed_distance(x, y), g.signed_distance(x, y));
+                if d.abs() < 1e-9 {
+                    assert!((dg + by).abs() < 1e-9, "{body:?} at ({x}, {y}): {dg}");
+                }
+            }
+            assert!((g.half_width_m() - body.half_width_m() - by).abs() < 1e-12);
         }
     }
 
