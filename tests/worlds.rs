@@ -142,14 +142,16 @@ fn reachability_agrees_with_gaps_measured_by_hand() {
     let dir = scratch("gaps");
     // Turtlebot 2: round, 0.40 m across; Spot: a 1.1 × 0.5 m body, through lengthwise
     // a map cell (0.05 m) to spare each side: the Turtlebot 2 from 0.50 m, Spot from 0.60 m
-    for (robot, narrow, wide, roomy) in [
-        ("turtlebot2", 0.36, 0.44, 0.56),
-        ("spot", 0.45, 0.58, 0.66),
-    ] {
+    for (robot, narrow, wide, roomy) in
+        [("turtlebot2", 0.36, 0.44, 0.56), ("spot", 0.45, 0.58, 0.66)]
+    {
         let set = format!("robot.profile={robot}");
         for (gap, want) in [
             (narrow, "impassable;"),
-            (wide, "passable, with less than a map cell to spare somewhere;"),
+            (
+                wide,
+                "passable, with less than a map cell to spare somewhere;",
+            ),
             (roomy, "passable, with a map cell to spare each side;"),
         ] {
             let p = gap_world(&dir, gap);

@@ -296,12 +296,25 @@ mod tests {
         for body in [spot(), Body::Round(0.2)] {
             let g = body.grown(by);
             // a point on the body's outline lies `by` inside the grown one's, on every side
-            for (x, y) in [(0.55, 0.0), (0.0, 0.25), (-0.55, 0.1), (0.2, -0.25), (0.2, 0.0)] {
+            let mut on = 0;
+            for (x, y) in [
+                (0.55, 0.0),
+                (0.0, 0.25),
+                (-0.55, 0.1),
+                (0.2, -0.25),
+                (0.2, 0.0),
+            ] {
                 let (d, dg) = (body.signed_distance(x, y), g.signed_distance(x, y));
                 if d.abs() < 1e-9 {
+                    on += 1;
                     assert!((dg + by).abs() < 1e-9, "{body:?} at ({x}, {y}): {dg}");
                 }
+                // and everywhere else too: the grown body's edge is `by` farther out
+                if d > 0.0 && dg > 0.0 {
+                    assert!(dg <= d - by + 1e-9, "{body:?} at ({x}, {y}): {d} {dg}");
+                }
             }
+            assert!(on >= 1, "{body:?}: no test point on its outline");
             assert!((g.half_width_m() - body.half_width_m() - by).abs() < 1e-12);
         }
     }
