@@ -170,9 +170,9 @@ pub fn passable(config: &Config, scene: &Scene) -> reach::Reach {
 
 /// Whether the configured robot's body grown by a map cell (`map.cell_m`) on every side still
 /// reaches `scene`'s goal: a world passable only without it asks the robot to pass somewhere
-/// with less room each side than one cell of the map it plans on can resolve (a 0.71 m hedge gap
-/// for Spot's 0.5 m width leaves it 10 cm; its map showed the gap 0.6 m wide, the bushes' edge
-/// cells drawn whole).
+/// with less room each side than one cell of the map it plans on can resolve (a 0.56 m hedge gap
+/// leaves Spot's 0.5 m width 3 cm a side; its map drew a 0.71 m gap 0.6 m wide, the bushes' edge
+/// cells whole).
 pub fn passable_with_a_cell_to_spare(config: &Config, scene: &Scene) -> bool {
     let spare = config.map.cell_m;
     reach::reach_body(
