@@ -211,6 +211,39 @@ pub struct UpdateStats {
     pub classified_at_end: u32,
 }
 
+/// What [`Mapper::settle_cell`] compares a cell's evidence with, converted from the parameters
+/// once (they do not change after [`Mapper::new`]) instead of at every cell.
+#[derive(Debug, Clone, Copy)]
+struct SettleLimits {
+    /// Γ, `mapper.gamma`.
+    gamma: f32,
+    /// R, `mapper.full_scale`.
+    full_scale: f32,
+    /// `mapper.solid_max` in intensity units.
+    solid_max_abs: f32,
+    /// `mapper.tall_m`, sensor frame.
+    tall_z: f32,
+    min_returns_solid: u16,
+    stop_min_returns: u16,
+    /// `mapper.surface_min_returns` > 0.
+    surface_cue: bool,
+}
+
+impl SettleLimits {
+    fn of(params: &MapperParams) -> Self {
+        let mp = &params.mapper;
+        SettleLimits {
+            gamma: mp.gamma as f32,
+            full_scale: mp.full_scale as f32,
+            solid_max_abs: mp.solid_max as f32 * mp.full_scale as f32,
+            tall_z: (mp.tall_m - params.robot.sensor_height_m) as f32,
+            min_returns_solid: returns(mp.min_returns_solid),
+            stop_min_returns: returns(mp.stop_min_returns),
+            surface_cue: mp.surface_min_returns > 0,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 struct LayerBounds {
     elevation: bool,
@@ -223,9 +256,13 @@ struct LayerBounds {
 pub struct Mapper {
     params: MapperParams,
     bounds: Vec<LayerBounds>,
+    /// `bounds` four at a time, for the binning's layer tests.
+    quads: Vec<LayerQuad>,
     /// 1 / (R g²): turns a layer's intensity sum into eq. 1's I_j.
     layer_scale: f32,
     roles: [usize; 4],
+    /// The parameters [`Mapper::settle_cell`] reads, converted once.
+    limits: SettleLimits,
     /// Per cell and layer (cell-major: `i * m + j`): eq. 1's sum, the count and the maximum.
     layer: Vec<LayerCell>,
     /// Per cell: the dual-return evidence.
@@ -286,7 +323,7 @@ pub struct Mapper {
     /// where the sensor was when it fired (de-skewed the same way: the beam ran from there).
     rings: Vec<Vec<RingEntry>>,
     /// Per laser, in firing order: each firing's last return (for the surface cue).
-    last_rings: Vec<Vec<LastReturn>>,
+    last_rings: Vec<LastRing>,
     /// Per ring: the returns whose window has been counted.
     last_counted: Vec<usize>,
     /// The last returns with enough of their neighbouring firings at their range
@@ -302,11 +339,27 @@ pub struct Mapper {
     stats: UpdateStats,
 }
 
-/// A firing's last return along its laser's ring.
+/// One laser's last returns, in firing order. The ranges are kept apart from the rest so that
+/// the surface cue's window over them is a plain run of `f32` the compiler turns into vector
+/// compares (read from the returns, the window was 7 % of a grass revolution's instructions).
+#[derive(Debug, Clone, Default)]
+struct LastRing {
+    /// Each return's range, m; NaN for ground (never on the same surface as anything).
+    ranges: Vec<f32>,
+    /// The rest of each return, at the same index.
+    returns: Vec<LastReturn>,
+}
+
+impl LastRing {
+    fn clear(&mut self) {
+        self.ranges.clear();
+        self.returns.clear();
+    }
+}
+
+/// A firing's last return along its laser's ring (its range in [`LastRing::ranges`]).
 #[derive(Debug, Clone, Copy)]
 struct LastReturn {
-    /// Range, m; NaN for ground (never on the same surface as anything).
-    range: f32,
     /// Height, sensor frame, m.
     z: f32,
     /// The cell it votes for, or [`NO_CELL`] (outside the grid, ground).
@@ -343,7 +396,7 @@ impl Mapper {
         let n2 = params.grid.len();
         let layers = params.layers();
         let m = layers.len();
-        let bounds = layers
+        let bounds: Vec<LayerBounds> = layers
             .iter()
             .map(|l| match l.unit {
                 LayerUnit::M => LayerBounds {
@@ -376,9 +429,11 @@ impl Mapper {
         }
         let g = params.grid.cell_m;
         Mapper {
+            quads: LayerQuad::of(&bounds),
             bounds,
             layer_scale: 1.0 / (params.mapper.full_scale as f32 * g * g),
             roles,
+            limits: SettleLimits::of(&params),
             layer: vec![LayerCell::default(); m * n2],
             evidence: vec![Evidence::default(); n2],
             touched: Vec::with_capacity(n2),
@@ -409,7 +464,7 @@ impl Mapper {
             surface_top: vec![f32::NEG_INFINITY; n2],
             last_pose: None,
             rings: vec![Vec::new(); 16],
-            last_rings: vec![Vec::new(); 16],
+            last_rings: vec![LastRing::default(); 16],
             last_counted: vec![0; 16],
             flat: Vec::new(),
             spikes: Vec::new(),
@@ -670,7 +725,10 @@ impl Mapper {
         let locator = grid.locator();
         let mut placed = std::mem::take(&mut self.placed);
         placed.clear();
-        placed.extend(points.iter().map(|p| {
+        // (the closure takes copies of what it reads: captured by reference, each constant was
+        // a load through a pointer a point)
+        let (layer, evidence) = (&self.layer[..], &self.evidence[..]);
+        placed.extend(points.iter().map(move |p| {
             let mut az_cdeg = i32::from(p.azimuth_cdeg);
             let (mut th, mut shift) = (0.0f32, 0.0f32);
             if deskew {
@@ -689,9 +747,8 @@ impl Mapper {
             if cell != NO_CELL {
                 let i = cell as usize;
                 // both ends: a cell's layers (and its evidence) may straddle two cache lines
-                prefetch(&self.layer, i * m);
-                prefetch(&self.layer, i * m + m.saturating_sub(1));
-                prefetch(&self.evidence, i);
+                prefetch(layer, i * m, m);
+                prefetch(evidence, i, 1);
             }
             Placed {
                 x,
@@ -702,17 +759,16 @@ impl Mapper {
                 az_cdeg,
             }
         }));
-        for (k, (p0, pl)) in points.iter().zip(&placed).enumerate() {
-            let mut p = *p0;
+        for (k, (p, pl)) in points.iter().zip(&placed).enumerate() {
+            // the point's own fields but its de-skewed (x, y), read from the first pass's record
+            // (a copy of the point with them written over it cost 3 % of a grass revolution's
+            // instructions)
+            let (px, py) = (pl.x, pl.y);
             let az_cdeg = pl.az_cdeg;
-            let (sin_t, cos_t) = small_angle(pl.th);
-            let shift = pl.shift;
-            (p.x, p.y) = (pl.x, pl.y);
-            let p = &p;
-            let horizontal = (p.x * p.x + p.y * p.y).sqrt();
+            let horizontal = (px * px + py * py).sqrt();
             // (the azimuth is below 36 000: the bin is below REACH_BINS)
             let bin = usize::from(az_cdeg / 50).min(REACH_BINS - 1);
-            self.reach[bin] = self.reach[bin].max(horizontal);
+            self.reach[bin] = running_max(self.reach[bin], horizontal);
             let d = p.distance_m().max(1e-3);
             let sin_el = p.z / d;
             let strongest = p.return_type & return_type::STRONGEST != 0;
@@ -720,8 +776,10 @@ impl Mapper {
                 && in_layer(&zero_b, p.z, sin_el)
                 && let Some(ring) = self.rings.get_mut(usize::from(p.laser_id))
             {
-                // a moving sensor fired this beam from behind where the revolution ends
-                let x = mount_x - shift;
+                // a moving sensor fired this beam from behind where the revolution ends (the
+                // rotation computed here only: few points are on the zero layer's rings)
+                let (sin_t, cos_t) = small_angle(pl.th);
+                let x = mount_x - pl.shift;
                 let origin = (cos_t * x + sin_t * mount_y, -sin_t * x + cos_t * mount_y);
                 ring.push((
                     RingReturn {
@@ -729,8 +787,8 @@ impl Mapper {
                         intensity: f32::from(p.intensity),
                         range_m: horizontal,
                     },
-                    p.x,
-                    p.y,
+                    px,
+                    py,
                     origin,
                 ));
             }
@@ -799,8 +857,8 @@ impl Mapper {
                     && points[k - 1].azimuth_cdeg == p.azimuth_cdeg)
                 && let Some(ring) = self.last_rings.get_mut(usize::from(p.laser_id))
             {
-                ring.push(LastReturn {
-                    range: if p.z < ground_z { f32::NAN } else { d },
+                ring.ranges.push(if p.z < ground_z { f32::NAN } else { d });
+                ring.returns.push(LastReturn {
                     z: p.z,
                     cell: cell.map_or(NO_CELL, |i| i as u32),
                 });
@@ -814,13 +872,19 @@ impl Mapper {
                 continue;
             };
             let mut any = false;
-            for (j, b) in self.bounds.iter().enumerate() {
-                if in_layer(b, p.z, sin_el) {
+            for (q, quad) in self.quads.iter().enumerate() {
+                // the layers holding the point, four tests at a time without a branch each (in
+                // grass which layers a return falls in changes from point to point), then
+                // only those layers written
+                let mut within = quad.within(p.z, sin_el);
+                any |= within != 0;
+                while within != 0 {
+                    let j = 4 * q + within.trailing_zeros() as usize;
+                    within &= within - 1;
                     let cell = &mut self.layer[i * m + j];
                     cell.count = cell.count.saturating_add(1);
                     cell.sum += f32::from(p.intensity);
                     cell.max = cell.max.max(p.intensity);
-                    any = true;
                 }
             }
             if any {
@@ -828,8 +892,9 @@ impl Mapper {
                 touch(&mut self.state, &mut self.touched, &mut self.redo, i);
                 let e = &mut self.evidence[i];
                 e.hits = e.hits.saturating_add(1);
-                // (selects, not branches: in grass which way they go is a coin toss)
-                e.top_z = e.top_z.max(p.z);
+                // (selects, not branches: in grass which way they go is a coin toss; a return
+                // in a layer has a number for its height)
+                e.top_z = running_max(e.top_z, p.z);
                 e.single = e.single.saturating_add(u16::from(
                     (p.return_type == return_type::BOTH) & (p.intensity >= opaque_min),
                 ));
@@ -1149,21 +1214,22 @@ impl Mapper {
         let was_tall = self.hit_class[i] != NO_HIT_CLASS && self.hit_class[i] & TALL_BIT != 0;
         let m = self.bounds.len();
         let (below, above, zero) = (self.roles[0], self.roles[1], self.roles[2]);
-        let mp = &self.params.mapper;
-        let gamma = mp.gamma as f32;
-        let solid_max_abs = mp.solid_max as f32 * mp.full_scale as f32;
-        let tall_z = (mp.tall_m - self.params.robot.sensor_height_m) as f32;
-        let (min_returns_solid, stop_min_returns) =
-            (returns(mp.min_returns_solid), returns(mp.stop_min_returns));
-        let mean = self
-            .mean(below, i)
-            .max(self.mean(above, i))
-            .max(self.mean(zero, i));
-        let brightest = [below, above, zero]
-            .iter()
-            .map(|&j| self.layer[i * m + j].max)
-            .max()
-            .unwrap_or(0);
+        let SettleLimits {
+            gamma,
+            full_scale,
+            solid_max_abs,
+            tall_z,
+            min_returns_solid,
+            stop_min_returns,
+            surface_cue,
+        } = self.limits;
+        // the cell's layers looked up once (a cell with returns is settled once or twice a
+        // revolution, thousands of them in grass); the means as `Mapper::mean` has them
+        let cell = &self.layer[i * m..(i + 1) * m];
+        let mean_of = |l: &LayerCell| l.sum / (f32::from(l.count.max(1)) * full_scale);
+        let (b, a, z) = (&cell[below], &cell[above], &cell[zero]);
+        let mean = mean_of(b).max(mean_of(a)).max(mean_of(z));
+        let brightest = b.max.max(a.max).max(z.max);
         let bright = f32::from(brightest) > solid_max_abs;
         let ended = e.single.saturating_add(e.stopped);
         let opaque = e.passed == 0 && ended >= min_returns_solid && 2 * ended > e.hits;
@@ -1175,7 +1241,7 @@ impl Mapper {
         let stops = e.passed == 0 && e.hits >= stop_min_returns;
         // the surface cue looks at cells that stand out neither by brightness or height nor
         // as an opaque surface (walls: the memory stays small)
-        self.surface_candidate[i] = mp.surface_min_returns > 0 && !tall && !bright && !opaque;
+        self.surface_candidate[i] = surface_cue && !tall && !bright && !opaque;
         let class = if mean <= gamma && !opaque && !tall && !stops && !bright {
             cell_class::PASSABLE
         } else {
@@ -1367,25 +1433,27 @@ impl Mapper {
         let need = self.params.mapper.surface_neighbours as usize;
         let tol = self.params.mapper.surface_tolerance_m as f32;
         for (ring, counted) in self.last_rings.iter().zip(&mut self.last_counted) {
+            let ranges = &ring.ranges[..];
             let end = if whole {
-                ring.len()
+                ranges.len()
             } else {
-                ring.len().saturating_sub(w)
+                ranges.len().saturating_sub(w)
             };
-            for k in *counted..end {
-                let lr = ring[k];
+            for (k, lr) in ring.returns.iter().enumerate().take(end).skip(*counted) {
                 if lr.cell == NO_CELL {
                     continue;
                 }
+                let range = ranges[k];
                 // the return itself is within the tolerance of itself: need + 1 in the window.
                 // The whole window is counted: stopping once they are there saved a few
-                // comparisons and cost a mispredicted branch a return in grass
-                let near = &ring[k.saturating_sub(w)..(k + w + 1).min(ring.len())];
-                let same = near
+                // comparisons and cost a mispredicted branch a return in grass; counted in a
+                // u32 so that the compares' lanes add as they are (a usize count widened each)
+                let near = &ranges[k.saturating_sub(w)..(k + w + 1).min(ranges.len())];
+                let same: u32 = near
                     .iter()
-                    .filter(|q| (q.range - lr.range).abs() < tol)
-                    .count();
-                if same > need {
+                    .map(|&q| u32::from((q - range).abs() < tol))
+                    .sum();
+                if same as usize > need {
                     self.flat.push((lr.cell, lr.z));
                 }
             }
@@ -1733,23 +1801,83 @@ fn wrap_cdeg(a: i32) -> u16 {
     }
 }
 
-/// Asks the processor to bring `s[i]` into the cache; nothing where it cannot, or `i` is out of
-/// bounds. A hint only: what the program computes does not change.
+/// Asks the processor to bring `s[i..i + n]` into the cache by its first and its last byte (the
+/// lines between them too while the run is no longer than a cache line: a cell's layers or its
+/// evidence); nothing where it cannot, or the run is empty or out of bounds. A hint only: what
+/// the program computes does not change.
 #[inline(always)]
-fn prefetch<T>(s: &[T], i: usize) {
+fn prefetch<T>(s: &[T], i: usize, n: usize) {
     #[cfg(target_arch = "x86_64")]
-    if let Some(x) = s.get(i) {
+    if let Some(run) = s.get(i..i.saturating_add(n))
+        && !run.is_empty()
+    {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let first = std::ptr::from_ref(x).cast::<i8>();
-        // SAFETY: a prefetch never faults nor changes memory; both addresses are in `s[i]`
+        let first = run.as_ptr().cast::<i8>();
+        // SAFETY: a prefetch never faults nor changes memory; both addresses are in `run`
         // (its first and last byte; the same one for a type of no size)
         unsafe {
             _mm_prefetch::<_MM_HINT_T0>(first);
-            _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<T>().saturating_sub(1)));
+            _mm_prefetch::<_MM_HINT_T0>(first.add(size_of_val(run).saturating_sub(1)));
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (s, i);
+    let _ = (s, i, n);
+}
+
+/// Four layers' bounds side by side, so that the four tests of a point compile to a few vector
+/// instructions (a layer's test and its branch were a sixth of the binning's second pass in
+/// grass).
+#[derive(Debug, Clone, Copy)]
+struct LayerQuad {
+    /// All ones where the layer is in elevation (tests `sin_el`), zeros where in metres (`z`).
+    elevation: [u32; 4],
+    low: [f32; 4],
+    high: [f32; 4],
+}
+
+impl LayerQuad {
+    /// `bounds` in fours; the last four padded with layers that hold nothing (low +∞, high −∞:
+    /// no number, nor a NaN, is at once at least the one and below the other).
+    fn of(bounds: &[LayerBounds]) -> Vec<LayerQuad> {
+        bounds
+            .chunks(4)
+            .map(|four| {
+                let mut q = LayerQuad {
+                    elevation: [0; 4],
+                    low: [f32::INFINITY; 4],
+                    high: [f32::NEG_INFINITY; 4],
+                };
+                for (l, b) in four.iter().enumerate() {
+                    q.elevation[l] = if b.elevation { u32::MAX } else { 0 };
+                    q.low[l] = b.low;
+                    q.high[l] = b.high;
+                }
+                q
+            })
+            .collect()
+    }
+
+    /// Bit l set where the point (height `z`, elevation's sine `sin_el`) lies in layer l of the
+    /// four: [`in_layer`]'s test, the value picked by its bits (exactly `z` or `sin_el`).
+    #[inline(always)]
+    fn within(&self, z: f32, sin_el: f32) -> u32 {
+        let (zb, sb) = (z.to_bits(), sin_el.to_bits());
+        let mut bits = 0;
+        for l in 0..4 {
+            let e = self.elevation[l];
+            let v = f32::from_bits((zb & !e) | (sb & e));
+            bits |= u32::from((v >= self.low[l]) & (v < self.high[l])) << l;
+        }
+        bits
+    }
+}
+
+/// `max.max(x)` for a running maximum `max` that is never NaN (it starts at a number and only
+/// ever takes a greater one): `x` where greater, else `max` — a NaN `x` leaves `max`, as
+/// `f32::max` does. One compare and select a point, where `f32::max` must test `max` for NaN too.
+#[inline(always)]
+fn running_max(max: f32, x: f32) -> f32 {
+    if x > max { x } else { max }
 }
 
 #[inline]

@@ -798,13 +798,80 @@ fn a_kept_tall_cell_gives_way_to_a_beam_through_it_and_to_what_is_seen_now() {
 }
 
 #[test]
-fn a_prefetch_out_of_bounds_or_of_a_type_of_no_size_is_a_no_op() {
+fn a_prefetch_out_of_bounds_empty_or_of_a_type_of_no_size_is_a_no_op() {
     let cells = [LayerCell::default(); 3];
     for i in [0, 2, 3, usize::MAX] {
-        prefetch(&cells, i);
+        for n in [0, 1, 3, usize::MAX] {
+            prefetch(&cells, i, n);
+        }
     }
-    prefetch(&[(); 4], 3);
-    prefetch::<u8>(&[], 0);
+    prefetch(&[(); 4], 3, 1);
+    prefetch::<u8>(&[], 0, 1);
+}
+
+/// The values the layer tests must agree on: the bounds, either side of them, the signed zeros,
+/// the infinities and a NaN.
+const EDGES: [f32; 11] = [
+    -1.5,
+    -0.3,
+    -0.0,
+    0.0,
+    0.026,
+    0.5,
+    1.0e-7,
+    -1.0e-7,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+];
+
+#[test]
+fn four_layer_tests_at_once_agree_with_each_layers_own_test() {
+    // the paper's four (two in metres, two in elevation), and five to fill a second four
+    let mut params = MapperParams::default();
+    let mut bounds = Mapper::new(params.clone()).bounds;
+    let quads = LayerQuad::of(&bounds);
+    assert_eq!(quads.len(), 1);
+    params.mapper.layers = params.layers();
+    params.mapper.layers.push(LayerConfig {
+        name: "fifth".into(),
+        unit: LayerUnit::M,
+        low: -0.3,
+        high: 0.5,
+    });
+    bounds = Mapper::new(params).bounds;
+    let quads = LayerQuad::of(&bounds);
+    assert_eq!(quads.len(), 2);
+    let mut values: Vec<f32> = EDGES.to_vec();
+    values.extend(bounds.iter().flat_map(|b| [b.low, b.high]));
+    values.extend((0..200).map(|k| -2.0 + 0.02 * k as f32));
+    for &z in &values {
+        for &sin_el in &values {
+            for (j, b) in bounds.iter().enumerate() {
+                let bit = (quads[j / 4].within(z, sin_el) >> (j % 4)) & 1 == 1;
+                assert_eq!(
+                    bit,
+                    in_layer(b, z, sin_el),
+                    "layer {j}, z {z}, sin_el {sin_el}"
+                );
+            }
+            // the padding holds nothing
+            assert_eq!(quads[1].within(z, sin_el) >> 1, 0, "z {z}, sin_el {sin_el}");
+        }
+    }
+}
+
+#[test]
+fn a_running_maximum_is_f32_max_while_it_is_a_number() {
+    let mut values: Vec<f32> = EDGES.to_vec();
+    values.extend((0..100).map(|k| -5.0 + 0.1 * k as f32));
+    for &max in values.iter().filter(|v| !v.is_nan()) {
+        for &x in &values {
+            let (got, want) = (running_max(max, x), max.max(x));
+            // (the signed zeros compare equal; `f32::max` may give either)
+            assert!(got == want, "max {max}, x {x}: {got} against {want}");
+        }
+    }
 }
 
 /// Dim last returns (a beam that went on) filling the cells of the square from (x0, y0), `n`
