@@ -75,7 +75,7 @@ impl Clearance {
     /// a cell centre's and a cell stands for anything within it, so beside a body already
     /// inside its margin a corner can sweep into what a cell holds while every cell it passes
     /// keeps its clearance (Spot, turning beside a bush and beside a pane on impassable
-    /// worlds).
+    /// worlds; the Turtlebot 2, squeezing along a bush on an impassable hedge).
     pub fn set_guard(&mut self, classes: &[u8], grid: GridSpec, body: &Body, within_m: f64) {
         self.guard.clear();
         let reach = (body.enclosing_radius_m() + within_m) as f32;
@@ -103,7 +103,7 @@ impl Clearance {
         }
     }
 
-    /// No cell guarded (a round body: its clearance is exact at its centre).
+    /// No cell guarded: rollouts read the clearance alone.
     pub fn no_guard(&mut self) {
         self.guard.clear();
     }

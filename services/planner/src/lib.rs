@@ -180,15 +180,12 @@ impl Planner {
             body @ Body::Rectangle { .. } => free_under_body(classes, grid, &body, &mut self.own),
             _ => false,
         };
-        // the cells beside a rectangular body that no rollout may bring it nearer, read from the
-        // map before anything under the body is freed
-        match p.robot.body() {
-            body @ Body::Rectangle { .. } => {
-                let within = dwa::guard_m(grid) + GUARD_BAND_M;
-                self.clear.set_guard(classes, grid, &body, within);
-            }
-            _ => self.clear.no_guard(),
-        }
+        // the cells beside the body that no rollout may bring it nearer, read from the map before
+        // anything under a rectangular body is freed. A round body too (stop 72): its centre's
+        // clearance is a cell centre's, and on an impassable hedge the Turtlebot 2, squeezing
+        // along it, grazed a bush whose edge cells kept their clearance as it came nearer
+        let within = dwa::guard_m(grid) + GUARD_BAND_M;
+        self.clear.set_guard(classes, grid, &p.robot.body(), within);
         // the reach of the dynamic window and of the clearance it reads
         let reach = p.reach_m();
         let near = reach as f32 + 2.0 * grid.cell_m;
@@ -372,8 +369,8 @@ pub fn maneuver_turn_rps(p: &PlannerParams) -> f64 {
     (0.5 * p.robot.max_angular_rps).max(1e-3)
 }
 
-/// Beyond [`dwa::guard_m`], how far from a rectangular body a cell is still guarded, m: farther
-/// ones the clearance keeps off.
+/// Beyond [`dwa::guard_m`], how far from the body a cell is still guarded, m: farther ones the
+/// clearance keeps off.
 const GUARD_BAND_M: f64 = 0.06;
 
 /// Which plan [`Planner::plan_as`] makes.
