@@ -46,6 +46,10 @@ use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
 use mimnav_velodyne::capture::CaptureReader;
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
+#[path = "support/slices.rs"]
+mod slices;
+use slices::slice_starts;
+
 /// Revolutions simulated before they are timed (a grass revolution holds ~30 000 points).
 const CHUNK: usize = 100;
 /// Mappers each revolution goes through; its cost is the least of their times
@@ -214,30 +218,6 @@ struct Measured {
     driven: Vec<f64>,
     /// Wall time simulating, and mapping, s.
     wall: (f64, f64),
-}
-
-/// Where a revolution's `lidar/slices` samples start: every 4 packets of 384 points
-/// (`velodyne.slice_packets`, dual return) counted back from its end, each on a firing's
-/// boundary. The last one starts at most 4 packets before the end.
-fn slice_starts(points: &[Point]) -> Vec<usize> {
-    let mut starts = Vec::new();
-    let mut end = points.len();
-    while end > 0 {
-        let mut at = end.saturating_sub(4 * 384);
-        while at > 0 && at < end && points[at].time_offset_ns == points[at - 1].time_offset_ns {
-            at += 1;
-        }
-        if at >= end {
-            break;
-        }
-        starts.push(at);
-        end = at;
-    }
-    if starts.last() != Some(&0) {
-        starts.push(0);
-    }
-    starts.reverse();
-    starts
 }
 
 /// Drives `drive` to its end (or `max` revolutions), [`CHUNK`] revolutions simulated at a time

@@ -25,34 +25,15 @@ use mimnav_sim::world::WorldFile;
 use mimnav_sim::{DEFAULT_EPOCH_NS, Outcome, Sim, SimSettings};
 use mimnav_velodyne::revolution::{Assembler, AssemblerConfig};
 
+#[path = "../benches/support/slices.rs"]
+mod slices;
+use slices::slice_starts;
+
 /// One revolution as the mapper service gets it: points, the odometry at its end, its stamp.
 struct Rev {
     points: Vec<Point>,
     odom: Odom,
     stamp_ns: u64,
-}
-
-/// Where a revolution's slices start: every 4 packets of 384 points counted back from its end,
-/// each on a firing's boundary (as `benches/mapper.rs`).
-fn slice_starts(points: &[Point]) -> Vec<usize> {
-    let mut starts = Vec::new();
-    let mut end = points.len();
-    while end > 0 {
-        let mut at = end.saturating_sub(4 * 384);
-        while at > 0 && at < end && points[at].time_offset_ns == points[at - 1].time_offset_ns {
-            at += 1;
-        }
-        if at >= end {
-            break;
-        }
-        starts.push(at);
-        end = at;
-    }
-    if starts.last() != Some(&0) {
-        starts.push(0);
-    }
-    starts.reverse();
-    starts
 }
 
 /// Simulates up to `max` revolutions of scenario 4 along its survey route.
