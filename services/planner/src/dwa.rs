@@ -29,7 +29,8 @@
 //! clearance: a long body turning swings its ends sideways, and a round body's centre moves
 //! within its cell along a bush. So the solid and glass cells just beside the body are also
 //! tested one by one ([`Clearance::set_guard`]): no rollout brings a cell's centre nearer than
-//! [`guard_m`] (half its diagonal and a centimetre), or nearer than it already is.
+//! [`guard_m`] (half its diagonal and a centimetre; a round body [`round_guard_m`], half a
+//! cell), or nearer than it already is.
 
 use mimnav_shared::grid::GridSpec;
 
@@ -337,7 +338,7 @@ fn search(
             false
         })
     };
-    // the cells beside the body: none may come nearer than `guard_m` (or than it is now)
+    // the cells beside the body: none may come nearer than `guard_at` (or than it is now)
     let guard = clear.guard();
     let guard_at = if round {
         round_guard_m(grid)
