@@ -103,11 +103,6 @@ impl Clearance {
         }
     }
 
-    /// No cell guarded: rollouts read the clearance alone.
-    pub fn no_guard(&mut self) {
-        self.guard.clear();
-    }
-
     /// The cells [`Clearance::set_guard`] kept: (x, y, distance from the body now).
     pub fn guard(&self) -> &[(f64, f64, f64)] {
         &self.guard
@@ -436,8 +431,6 @@ pub(crate) mod tests {
             })
             .count();
         assert_eq!(guard.len(), wall_cells);
-        clear.no_guard();
-        assert!(clear.guard().is_empty());
     }
 
     #[test]
