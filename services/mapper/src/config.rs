@@ -68,6 +68,16 @@ pub struct MapperConfig {
     /// Surface along a ring: a return with at least this many of those neighbours on its surface
     /// is on a surface (foliage returns at scattered ranges).
     pub surface_neighbours: u32,
+    /// Surface along a ring, in the shade of foliage: a return with at least this many
+    /// neighbours on its surface (fewer than `surface_neighbours`) is on a surface when at most
+    /// `surface_beyond_max` of the window's firings went farther than it. The others ended
+    /// short of it, in the blades in front, and say nothing of what it is: a rock seen from
+    /// high up through a metre or two of grass, which few beams reach at all, while a
+    /// curtain's strands let every other beam through (0: off).
+    pub surface_shaded_neighbours: u32,
+    /// The firings of the window that may have gone farther than a shaded surface return, its
+    /// rock's sides or a gap between blades (`surface_shaded_neighbours`).
+    pub surface_beyond_max: u32,
     /// A cell with at least this many returns on a surface in one revolution is solid whatever
     /// its intensity (0: the cue is off).
     pub surface_min_returns: u32,
@@ -152,6 +162,8 @@ impl Default for MapperConfig {
             surface_tolerance_m: 0.04,
             surface_window: 8,
             surface_neighbours: 8,
+            surface_shaded_neighbours: 3,
+            surface_beyond_max: 2,
             surface_min_returns: 2,
             surface_memory_s: 3.0,
             surface_memory_longest_s: 30.0,
@@ -250,6 +262,20 @@ impl MapperConfig {
                 self.surface_neighbours,
                 2 * self.surface_window
             ),
+        );
+        r.require(
+            self.surface_shaded_neighbours <= self.surface_neighbours,
+            "mapper.surface_shaded_neighbours",
+            format!(
+                "mapper.surface_shaded_neighbours = {} must be at most mapper.surface_neighbours = {}",
+                self.surface_shaded_neighbours, self.surface_neighbours
+            ),
+        );
+        r.check(
+            "mapper.surface_beyond_max",
+            f64::from(self.surface_beyond_max),
+            0.0,
+            128.0,
         );
         r.check(
             "mapper.surface_min_returns",

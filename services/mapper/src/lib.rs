@@ -31,8 +31,9 @@
 //! ladar.txt`, FIND-LOW-FREQ) observation that along one laser's scan the range of a solid
 //! surface changes slowly from firing to firing while foliage returns at scattered ranges. A
 //! downward beam's last return with enough of its neighbouring firings at the same range
-//! (`surface_tolerance_m`, `surface_window`, `surface_neighbours`) lies on a surface when no beam
-//! passed through its cell below it, and a cell that is not bright, tall or opaque is solid with
+//! (`surface_tolerance_m`, `surface_window`, `surface_neighbours`; or fewer,
+//! `surface_shaded_neighbours`, when the others all ended short of it but
+//! `surface_beyond_max`) lies on a surface when no beam passed through its cell below it, and a cell that is not bright, tall or opaque is solid with
 //! `surface_min_returns` such returns: a rock below the grass tops, whose echoes are as faint as
 //! the blades' and whose cells the blades above it let beams through (a curtain lets them through
 //! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
@@ -344,7 +345,8 @@ pub struct Mapper {
 /// compares (read from the returns, the window was 7 % of a grass revolution's instructions).
 #[derive(Debug, Clone, Default)]
 struct LastRing {
-    /// Each return's range, m; NaN for ground (never on the same surface as anything).
+    /// Each return's range, m; negative for ground (never on the same surface as anything, and
+    /// farther than anything nearer by its size).
     ranges: Vec<f32>,
     /// The rest of each return, at the same index.
     returns: Vec<LastReturn>,
@@ -857,7 +859,7 @@ impl Mapper {
                     && points[k - 1].azimuth_cdeg == p.azimuth_cdeg)
                 && let Some(ring) = self.last_rings.get_mut(usize::from(p.laser_id))
             {
-                ring.ranges.push(if p.z < ground_z { f32::NAN } else { d });
+                ring.ranges.push(if p.z < ground_z { -d } else { d });
                 ring.returns.push(LastReturn {
                     z: p.z,
                     cell: cell.map_or(NO_CELL, |i| i as u32),
@@ -1432,6 +1434,8 @@ impl Mapper {
         let w = self.params.mapper.surface_window as usize;
         let need = self.params.mapper.surface_neighbours as usize;
         let tol = self.params.mapper.surface_tolerance_m as f32;
+        let shaded = self.params.mapper.surface_shaded_neighbours as usize;
+        let beyond_max = self.params.mapper.surface_beyond_max as usize;
         for (ring, counted) in self.last_rings.iter().zip(&mut self.last_counted) {
             let ranges = &ring.ranges[..];
             let end = if whole {
@@ -1453,7 +1457,16 @@ impl Mapper {
                     .iter()
                     .map(|&q| u32::from((q - range).abs() < tol))
                     .sum();
-                if same as usize > need {
+                if same as usize > need
+                    || (shaded > 0 && same as usize > shaded && {
+                        // in the shade of blades: the window's other firings ended short of
+                        // it (nearer) and but a few went past it (its sides, a gap); a ground
+                        // return's range is negative, farther by its size
+                        let beyond: u32 =
+                            near.iter().map(|&q| u32::from(q.abs() > range + tol)).sum();
+                        beyond as usize <= beyond_max
+                    })
+                {
                     self.flat.push((lr.cell, lr.z));
                 }
             }

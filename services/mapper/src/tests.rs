@@ -512,6 +512,63 @@ fn a_rock_below_the_grass_tops_is_solid_by_its_surface_along_the_ring() {
     assert_eq!(class_at(&m, 3.0, 0.0), cell_class::SOLID);
 }
 
+/// The ring of [`rock_in_grass`] in the shade of the grass in front: only every `every`-th
+/// firing reaches the rock's face; the others end on a blade short of it, at scattered ranges
+/// (0.5–1.1 m), or, with `past`, go on past the face to the ground 3 m out (a curtain's
+/// strands, which let every other beam through).
+fn shaded_rock(every: usize, past: bool) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for k in 0..30 {
+        let y = 0.1 - 0.2 * k as f32 / 29.0;
+        if k % every == 0 {
+            pts.extend(through_blade(1.5, y, -0.35, 0.8, 1));
+        } else if past {
+            pts.push(pt(3.0, 2.0 * y, -0.7, 6, 1, return_type::LAST));
+        } else {
+            let s = (0.5 + 0.6 * (k as f32 * 0.618).fract()) / 1.5;
+            pts.push(pt(1.5 * s, y * s, -0.35 * s, 4, 1, return_type::LAST));
+        }
+        let over = (1.5f32 * 1.5 + y * y + 0.05 * 0.05).sqrt();
+        pts.extend(through_blade(3.0, 2.0 * y, -0.1, over, 5));
+    }
+    pts
+}
+
+#[test]
+fn a_rock_few_beams_reach_through_the_grass_is_solid_unless_beams_go_past_it() {
+    let p = MapperParams::default();
+    assert_eq!(
+        (
+            p.mapper.surface_shaded_neighbours,
+            p.mapper.surface_beyond_max
+        ),
+        (3, 2),
+        "the documented defaults"
+    );
+    // one firing in four reaches the face: 4 or 5 of a return's 16 neighbours, fewer than
+    // surface_neighbours (8), and none went farther
+    let shaded = shaded_rock(4, false);
+    let mut m = mapper();
+    m.update(&shaded, OdomInput::Missing, 0);
+    assert_eq!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "in the shade");
+    let mut off = mapper_with(|m| m.surface_shaded_neighbours = 0);
+    off.update(&shaded, OdomInput::Missing, 0);
+    assert_ne!(class_at(&off, 1.5, 0.0), cell_class::SOLID, "the cue off");
+    // the blades the other firings ended on are no surface
+    for q in shaded.iter().filter(|q| q.laser_id == 1 && q.x < 1.2) {
+        assert_ne!(class_at(&m, q.x, q.y), cell_class::SOLID, "a blade");
+    }
+    // the same face with the other firings gone past it, to the ground behind: strands
+    let strands = shaded_rock(4, true);
+    let mut m = mapper();
+    m.update(&strands, OdomInput::Missing, 0);
+    assert_ne!(class_at(&m, 1.5, 0.0), cell_class::SOLID, "beams went past");
+    // ... unless as many may go past as do
+    let mut lax = mapper_with(|m| m.surface_beyond_max = 16);
+    lax.update(&strands, OdomInput::Missing, 0);
+    assert_eq!(class_at(&lax, 1.5, 0.0), cell_class::SOLID, "beyond_max 16");
+}
+
 /// A rock under grass shows the beams its near face; the cells behind the face, along the
 /// beams, up to `mapper.surface_depth_m`, are its body.
 #[test]
