@@ -31,9 +31,10 @@
 //! ladar.txt`, FIND-LOW-FREQ) observation that along one laser's scan the range of a solid
 //! surface changes slowly from firing to firing while foliage returns at scattered ranges. A
 //! downward beam's last return with enough of its neighbouring firings at the same range
-//! (`surface_tolerance_m`, `surface_window`, `surface_neighbours`; or fewer,
-//! `surface_shaded_neighbours`, when the others all ended short of it but
-//! `surface_beyond_max`) lies on a surface when no beam passed through its cell below it, and a cell that is not bright, tall or opaque is solid with
+//! (`surface_tolerance_m`, `surface_window`, `surface_neighbours`; or only
+//! `surface_shaded_neighbours` when no more than `surface_beyond_max` of the window went farther:
+//! the rest ended in the blades in front of it) lies on a surface when no beam passed through its
+//! cell below it, and a cell that is not bright, tall or opaque is solid with
 //! `surface_min_returns` such returns: a rock below the grass tops, whose echoes are as faint as
 //! the blades' and whose cells the blades above it let beams through (a curtain lets them through
 //! below too). Upward beams are left out: where one leaves a canopy, its last blades lie near one
@@ -345,8 +346,8 @@ pub struct Mapper {
 /// compares (read from the returns, the window was 7 % of a grass revolution's instructions).
 #[derive(Debug, Clone, Default)]
 struct LastRing {
-    /// Each return's range, m; negative for ground (never on the same surface as anything, and
-    /// farther than anything nearer by its size).
+    /// Each return's range, m; negated for ground: never on the same surface as anything, and
+    /// its size still says how far the beam went.
     ranges: Vec<f32>,
     /// The rest of each return, at the same index.
     returns: Vec<LastReturn>,
