@@ -97,6 +97,12 @@ pub struct PlannerConfig {
     /// the straight-line distance (the paper's DWA) no faster than `glass_slow_mps`, with the
     /// `no route` flag, for this long; then it stops with the `blocked` status, s (0: at once).
     pub no_route_stop_s: f64,
+    /// A way off the map the route leads along (the goal on the map, the way round it beyond:
+    /// a partition's opening left behind) is driven as a route: at the speeds beside glass, not
+    /// crept at `glass_slow_mps`, and the `blocked` stop comes `no_route_stop_s` after the
+    /// robot last got 0.5 m nearer the goal along it, not after that long in all (false: crept
+    /// and stopped as with no way at all).
+    pub beyond_as_route: bool,
     /// Top speed with glass at the body's edge, m/s: near glass the planner drives no faster
     /// than this, rising to the robot's top speed at `glass_slow_within_m` (a pane is seen only
     /// where a beam meets it squarely, so its unseen parts appear late).
@@ -230,6 +236,7 @@ impl Default for PlannerConfig {
             route_memory_s: 120.0,
             use_foliage: true,
             no_route_stop_s: 20.0,
+            beyond_as_route: true,
             glass_slow_mps: 0.2,
             glass_slow_within_m: 1.0,
             glass_slow_ends: true,

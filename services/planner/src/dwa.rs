@@ -106,6 +106,8 @@ pub const TURNING_RPS: f64 = 0.25;
 /// rollout alike). A `route` that knows no way from the robot's place to the goal is not used:
 /// progress is the straight-line distance and the speed at most `planner.glass_slow_mps`
 /// (`DwaOutcome::Drive::routed` false; [`crate::pilot`] stops after `planner.no_route_stop_s`).
+/// One whose way leads off the map ([`Route::beyond`]) is followed, `routed` still false, and
+/// with `planner.beyond_as_route` at the speeds of a route.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_capped_turning(
     p: &PlannerParams,
@@ -216,7 +218,8 @@ fn search(
     let mut speed_cap = speed_cap;
     // no way to the goal on the map: the one beyond it when there is one, else the straight line
     let lost = route.is_some() && routed.is_none_or(Route::beyond);
-    if lost {
+    // a way off the map is driven at the speeds of a route with `planner.beyond_as_route`
+    if lost && !(routed.is_some() && pl.beyond_as_route) {
         // the map closes every way: drive on towards what is not on the map yet, or by the
         // straight line (the paper's DWA), no faster than beside glass — the way is open only
         // if the map is wrong or it lies beyond the map

@@ -190,8 +190,10 @@ pub struct Pilot {
     last_map_ns: Option<u64>,
     classes: Vec<u8>,
     seq: u64,
-    /// Since when the map has held no route to the goal (monotonic ns).
-    no_route_since: Option<u64>,
+    /// Since when the map has held no route to the goal (monotonic ns), and how the way off
+    /// the map ([`crate::route::Route::beyond`]) shortened meanwhile: one it leads along keeps
+    /// the creep going.
+    no_route: Progress,
     map_hop: Hop,
     /// Backing out: see [`BackOut`].
     back_out: BackOut,
@@ -434,7 +436,7 @@ impl Pilot {
             last_map_ns: None,
             classes: Vec::new(),
             seq: 0,
-            no_route_since: None,
+            no_route: Progress::default(),
             map_hop: Hop::new(),
             back_out: BackOut::default(),
             maneuver: Maneuvering::default(),
@@ -490,7 +492,7 @@ impl Pilot {
     pub fn goal(&mut self, g: &Goal) -> Result<(), Refused> {
         if g.flags & goal_flags::STOP != 0 {
             self.goal = None;
-            self.no_route_since = None;
+            self.no_route = Progress::default();
             self.back_out = BackOut::default();
             self.maneuver = Maneuvering::default();
             self.look = Look::default();
@@ -504,7 +506,7 @@ impl Pilot {
         }
         self.goal = Some(*g);
         // a new goal may have a route: its own time to find one, its own tries to back out
-        self.no_route_since = None;
+        self.no_route = Progress::default();
         self.back_out = BackOut::default();
         self.maneuver = Maneuvering::default();
         self.look = Look::default();
@@ -664,16 +666,24 @@ impl Pilot {
             DwaOutcome::Drive {
                 v, omega, routed, ..
             } if v.is_finite() && omega.is_finite() => {
-                // no route on the map: creep on by the straight line for
-                // `planner.no_route_stop_s` (the map may be wrong: a pane's unseen stretch drawn
-                // across the only opening), then stop
+                // no route on the map: creep on (off the map where a way leads there, else by
+                // the straight line) for `planner.no_route_stop_s` (the map may be wrong: a
+                // pane's unseen stretch drawn across the only opening), then stop
                 let mut flags = flags;
                 if routed {
-                    self.no_route_since = None;
+                    self.no_route = Progress::default();
                 } else {
                     flags |= command_flags::NO_ROUTE;
-                    let since = *self.no_route_since.get_or_insert(now);
-                    if now.saturating_sub(since) >= self.params().no_route_stop_ns() {
+                    // with `planner.beyond_as_route`, a way off the map the robot gets on
+                    // along (its length falling by 0.5 m) starts the time again; with none
+                    // (an infinite length), or one that no longer shortens, it runs out
+                    let route_m = if self.params().planner.beyond_as_route {
+                        route_m
+                    } else {
+                        f64::INFINITY
+                    };
+                    self.no_route.see(route_m, now, f64::INFINITY);
+                    if self.no_route.stalled_ns(now) >= self.params().no_route_stop_ns() {
                         return Decision::stop(command_status::BLOCKED, flags, None, Some(header));
                     }
                 }

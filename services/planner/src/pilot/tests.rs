@@ -462,6 +462,8 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     let walled = wall_across_ahead();
     let mut params = PlannerParams::default();
     params.planner.no_route_stop_s = 2.0;
+    // the way off the map (round the wall's ends beyond the border) crept as no way at all
+    params.planner.beyond_as_route = false;
     let t = 10 * S;
     let mut p = driving(params.clone(), t);
     let at = |p: &mut Pilot, dt: u64| {
@@ -490,6 +492,60 @@ fn with_no_route_on_the_map_the_robot_creeps_then_stops_blocked() {
     let open = at(&mut p, 2100 * MS);
     assert_eq!(open.status, command_status::DRIVING, "{open:?}");
     assert_eq!(open.flags & command_flags::NO_ROUTE, 0, "{open:?}");
+}
+
+/// Issue 22, stop 74: a way off the map (`planner.beyond_as_route`). A wall across the whole
+/// map 1.5 m ahead, the goal 3 m ahead behind it: the way round the wall's ends leads off the
+/// map. Driven along (the way shortening), the robot goes on past `no_route_stop_s`, faster
+/// than the creep; standing, it stops `blocked` that long after it last got nearer. Crept
+/// (the key off), it stops that long after the way was lost, driving or not.
+#[test]
+fn a_way_off_the_map_driven_along_goes_on_and_one_not_shortening_stops() {
+    let walled = wall_across_ahead();
+    let run = |as_route: bool| {
+        let mut params = PlannerParams::default();
+        params.planner.no_route_stop_s = 2.0;
+        params.planner.beyond_as_route = as_route;
+        params.planner.route_memory_m = 0.0;
+        let t = 10 * S;
+        let mut p = driving(params.clone(), t);
+        // the robot moving along the wall at 0.4 m/s, 4 cm a map, towards the goal's side
+        let mut at = |k: u64, y: f64, v: f32| {
+            let now = t + k * 100 * MS;
+            p.odom(&Odometry { y, v, ..odom(now) })
+                .expect("good odometry");
+            p.on_map(&header(k), walled.iter().copied(), now)
+        };
+        let moving: Vec<Decision> = (0..40).map(|k| at(k, -0.04 * k as f64, 0.4)).collect();
+        // then standing where it got to
+        let standing: Vec<Decision> = (40..80).map(|k| at(k, -1.6, 0.0)).collect();
+        (params, moving, standing)
+    };
+    let (params, moving, standing) = run(true);
+    for d in &moving {
+        assert_eq!(d.status, command_status::DRIVING, "{d:?}");
+        assert_ne!(d.flags & command_flags::NO_ROUTE, 0, "{d:?}");
+    }
+    let top = moving.iter().map(|d| d.v).fold(0.0, f64::max);
+    assert!(top > params.planner.glass_slow_mps + 0.05, "{top}");
+    // standing, the way shortens no more: blocked 2 s after it last got 0.5 m shorter (at most
+    // 13 maps of 4 cm before the robot stood)
+    let first_blocked = standing
+        .iter()
+        .position(|d| d.status == command_status::BLOCKED)
+        .expect("blocked once the way stopped shortening");
+    assert!((7..=21).contains(&first_blocked), "{first_blocked}");
+    assert_ne!(standing[first_blocked].flags & command_flags::NO_ROUTE, 0);
+    // crept: at most the creep's speed, blocked 2 s after the way was lost, moving or not
+    let (params, moving, _) = run(false);
+    let first_blocked = moving
+        .iter()
+        .position(|d| d.status == command_status::BLOCKED)
+        .expect("blocked though moving");
+    assert!((19..=21).contains(&first_blocked), "{first_blocked}");
+    for d in &moving[..first_blocked] {
+        assert!(d.v <= params.planner.glass_slow_mps + 1e-9, "{d:?}");
+    }
 }
 
 /// Issue 22, stop 65: the route remembers what the robot left behind (`planner.route_memory_m`).
