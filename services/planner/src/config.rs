@@ -96,6 +96,7 @@ pub struct PlannerConfig {
     /// When the map holds no route to the goal for the robot's body, the planner drives on by
     /// the straight-line distance (the paper's DWA) no faster than `glass_slow_mps`, with the
     /// `no route` flag, for this long; then it stops with the `blocked` status, s (0: at once).
+    /// A way off the map: see `beyond_as_route`.
     pub no_route_stop_s: f64,
     /// A way off the map the route leads along (the goal on the map, the way round it beyond:
     /// a partition's opening left behind) is driven as a route: at the speeds beside glass, not
