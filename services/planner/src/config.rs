@@ -161,6 +161,13 @@ pub struct PlannerConfig {
     /// it is, so that after `recovery_after_s` it maneuvers or backs out instead of driving on
     /// away from the goal, m (0: never, the default; a round body never, it turns on the spot).
     pub still_gain_m: f64,
+    /// A long body also weighs turning on the spot first: rollouts that turn in place to a
+    /// heading up to half a turn away, at the top turn rate, then drive straight on for the
+    /// rest of the horizon; one wins (the command: stand and turn) only where no arc of the
+    /// window comes as near the goal. An arc cannot show the way into a door in a corridor's
+    /// side too narrow for the body to turn into on the move (false: arcs only; a round body
+    /// never, its arcs turn within its own circle).
+    pub turn_first: bool,
     /// A robot whose route has led it no nearer the goal for this long, the route running into
     /// suspected glass close ahead, goes to look at it: it drives beside the pane's line past
     /// the suspected stretch's end, so its beams meet the whole stretch squarely (issue 22,
@@ -249,6 +256,7 @@ impl Default for PlannerConfig {
             recovery_max: 4,
             maneuver_s: 0.0,
             still_gain_m: 0.0,
+            turn_first: true,
             look_after_s: 3.0,
             look_s: 8.0,
             look_openings_only: true,

@@ -24,6 +24,13 @@
 //! body keeps the whole margin: a body already inside it is held, and the pilot's
 //! `planner.no_route_stop_s` ends the wait.
 //!
+//! A long body whose window reaches standing still also rolls out turns on the spot first
+//! (`planner.turn_first`): in place to a heading up to half a turn away, then straight on.
+//! An arc's score is the route's length at its nearest, so a turn in place gains nothing within
+//! the horizon and the fastest arc that loses nothing wins: beside a door in a corridor's side
+//! Spot drove on past it. Such a plan wins only [`TURN_FIRST_GAIN_M`] nearer the goal than the
+//! best arc (issue 22, glass corridors).
+//!
 //! The clearance is a cell centre's, and a cell stands for anything within it, so a body close
 //! to a cell can sweep into what the cell holds while every cell its outline passes keeps its
 //! clearance: a long body turning swings its ends sideways, and a round body's centre moves
@@ -193,11 +200,49 @@ pub const BACK_OUT_CLEARANCE_WEIGHT: f64 = 3.0;
 /// 3 cm a try and never came in again straighter (issue 22, stop 61).
 pub const BACK_OUT_DISTANCE_WEIGHT: f64 = 5.0;
 
+/// Headings a half turn holds for a long body's turns on the spot first (`planner.turn_first`):
+/// 11.25° apart, the first tried 22.5° away (less, an arc turns as far).
+pub const TURN_FIRST_HEADINGS: usize = 16;
+
+/// A turn on the spot first must come this much nearer the goal than the best arc, m.
+pub const TURN_FIRST_GAIN_M: f64 = 0.1;
+
 /// Which speeds the window samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Gear {
     Forward,
     Reverse,
+}
+
+/// Where a rollout has got to.
+#[derive(Debug, Clone, Copy)]
+struct Rollout {
+    x: f64,
+    y: f64,
+    hc: f64,
+    hs: f64,
+    /// Steps of the horizon rolled.
+    k: usize,
+    obstacle: f64,
+    /// The least route length met so far.
+    closest: f64,
+    /// Off the map or at the goal: nothing more to roll.
+    ended: bool,
+}
+
+impl Rollout {
+    fn start(to_go: f64) -> Rollout {
+        Rollout {
+            x: 0.0,
+            y: 0.0,
+            hc: 1.0,
+            hs: 0.0,
+            k: 0,
+            obstacle: 0.0,
+            closest: to_go,
+            ended: false,
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -372,6 +417,61 @@ fn search(
             lo + (hi - lo) * k as f64 / (n - 1) as f64
         }
     };
+    // Rolls (v, ω) on from `at` for `n` steps of the horizon (`at.k` counts them): false as soon
+    // as a pose is infeasible. Leaving the map or reaching the goal ends the rollout feasible.
+    let roll = |at: &mut Rollout, v: f64, w: f64, n: usize| -> bool {
+        // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling sin and
+        // cos each step
+        let (turn_s, turn_c) = (w * dt_s).sin_cos();
+        for _ in 0..n {
+            if at.ended {
+                break;
+            }
+            let k = at.k;
+            at.k += 1;
+            (at.hc, at.hs) = (
+                at.hc * turn_c - at.hs * turn_s,
+                at.hs * turn_c + at.hc * turn_s,
+            );
+            let (hc, hs) = (at.hc, at.hs);
+            at.x += v * hc * dt_s;
+            at.y += v * hs * dt_s;
+            let (x, y) = (at.x, at.y);
+            let Some((r, c)) = grid.cell_of(x as f32, y as f32) else {
+                at.closest = at.closest.min(to_go(x, y));
+                at.ended = true;
+                break;
+            };
+            let i = grid.index(r, c);
+            let centre_clear = f64::from(clear.at(r, c));
+            if round {
+                if centre_clear < discs[0].1
+                    || centre_clear < round_guarded_within
+                        && !guard.is_empty()
+                        && guarded(x, y, hc, hs)
+                {
+                    return false;
+                }
+            } else if centre_clear < centre_enough && too_close(x, y, hc, hs)
+                || !guard.is_empty() && guarded(x, y, hc, hs)
+            {
+                return false;
+            }
+            at.obstacle += f64::from(cost[i]) / 255.0;
+            // progress every other step and at the end (the route is smooth; this halves the
+            // planner's largest cost)
+            if k % 2 == 1 || k + 1 == steps {
+                at.closest = at.closest.min(to_go(x, y));
+            }
+            let (gx, gy) = (goal.0 - x, goal.1 - y);
+            if gx * gx + gy * gy < 0.05 * 0.05 {
+                at.closest = at.closest.min(to_go(x, y));
+                at.ended = true;
+                break;
+            }
+        }
+        true
+    };
     // A forward rollout's score can be bounded before it is rolled out: its goal progress is
     // no better than the least route length within its reach (|v| · the horizon), the speed
     // term is known, and the obstacle term is never negative. Speeds are taken fastest first,
@@ -414,54 +514,19 @@ fn search(
             {
                 continue;
             }
-            // the heading turns by w·dt a step: rotate (cos θ, sin θ) instead of calling
-            // sin and cos each step
-            let (turn_s, turn_c) = (w * dt_s).sin_cos();
-            let (mut x, mut y) = (0.0f64, 0.0f64);
-            let (mut hc, mut hs) = (1.0f64, 0.0f64);
-            let mut obstacle = 0.0;
-            let mut feasible = true;
-            let mut closest = start_to_go;
-            for k in 0..steps {
-                (hc, hs) = (hc * turn_c - hs * turn_s, hs * turn_c + hc * turn_s);
-                x += v * hc * dt_s;
-                y += v * hs * dt_s;
-                let Some((r, c)) = grid.cell_of(x as f32, y as f32) else {
-                    closest = closest.min(to_go(x, y));
-                    break;
-                };
-                let i = grid.index(r, c);
-                let centre_clear = f64::from(clear.at(r, c));
-                if round {
-                    if centre_clear < discs[0].1
-                        || centre_clear < round_guarded_within
-                            && !guard.is_empty()
-                            && guarded(x, y, hc, hs)
-                    {
-                        feasible = false;
-                        break;
-                    }
-                } else if centre_clear < centre_enough && too_close(x, y, hc, hs)
-                    || !guard.is_empty() && guarded(x, y, hc, hs)
-                {
-                    feasible = false;
-                    break;
-                }
-                obstacle += f64::from(cost[i]) / 255.0;
-                // progress every other step and at the end (the route is smooth; this halves
-                // the planner's largest cost)
-                if k % 2 == 1 || k + 1 == steps {
-                    closest = closest.min(to_go(x, y));
-                }
-                let (gx, gy) = (goal.0 - x, goal.1 - y);
-                if gx * gx + gy * gy < 0.05 * 0.05 {
-                    closest = closest.min(to_go(x, y));
-                    break;
-                }
-            }
-            if !feasible {
+            let mut at = Rollout::start(start_to_go);
+            if !roll(&mut at, v, w, steps) {
                 continue;
             }
+            let Rollout {
+                x,
+                y,
+                hc,
+                hs,
+                obstacle,
+                closest,
+                ..
+            } = at;
             let score = match gear {
                 Gear::Forward => {
                     pl.goal_weight * closest
@@ -488,6 +553,52 @@ fn search(
             let place = kv * n_w + kw;
             if best.is_none_or(|b| score < b.2 || (score == b.2 && place < b.3)) {
                 best = Some((v, w, score, place, start_to_go - closest));
+            }
+        }
+    }
+    // A long body whose arcs all come less than `TURN_FIRST_GAIN_M` nearer the goal (they lead
+    // past a door beside it) may turn on the spot first (`planner.turn_first`): to each of
+    // `TURN_FIRST_HEADINGS` a side at the top turn rate the window allows, then straight on at
+    // the turning cap for what is left of the horizon (less the time lost getting up to speed).
+    // It wins only by `TURN_FIRST_GAIN_M` of progress more: where an arc gains, turning on the
+    // spot instead had Spot circling in an office, each turn's straight leg tried from a new
+    // place.
+    if gear == Gear::Forward && !round && pl.turn_first && v_lo == 0.0 {
+        let v_go = max_v.min(turning_cap).min(speed_cap);
+        let v_go = if pl.inside_margin_mps > 0.0 && closest < full {
+            v_go.min(pl.inside_margin_mps)
+        } else {
+            v_go
+        };
+        let ramp_steps = (0.5 * v_go / max_accel / dt_s).ceil().min(steps as f64) as usize;
+        // left, then right: each no slower than half the top turn rate the window allows
+        for (w, side) in [(w_hi.min(max_omega), 1.0), (w_lo.max(-max_omega), -1.0)] {
+            if w * side < 0.5 * max_omega || v_go <= 0.0 {
+                continue;
+            }
+            let mut at = Rollout::start(start_to_go);
+            let mut turned = 0;
+            for j in 2..=TURN_FIRST_HEADINGS {
+                let angle = std::f64::consts::PI * j as f64 / TURN_FIRST_HEADINGS as f64;
+                let n_turn = (angle / (w.abs() * dt_s)).ceil() as usize;
+                if n_turn.saturating_add(ramp_steps + 2) > steps {
+                    break;
+                }
+                // the turn so far is shared by every heading beyond it
+                if !roll(&mut at, 0.0, w, n_turn - turned) {
+                    break;
+                }
+                turned = n_turn;
+                let mut go = at;
+                if !roll(&mut go, v_go, 0.0, steps - n_turn - ramp_steps) {
+                    continue;
+                }
+                let score = pl.goal_weight * (go.closest + TURN_FIRST_GAIN_M)
+                    + pl.speed_weight * max_v
+                    + pl.obstacle_weight * go.obstacle * dt_s;
+                if best.is_none_or(|b| score < b.2) {
+                    best = Some((0.0, w, score, usize::MAX, start_to_go - go.closest));
+                }
             }
         }
     }
@@ -816,6 +927,63 @@ pub(crate) mod tests {
             plan(&ahead, grid, &cost, &clear, 0.3, 0.0, (4.0, 0.0), None),
             DwaOutcome::Drive { v, .. } if v > 0.25
         ));
+    }
+
+    /// Issue 22 (glass corridors): a door in the side of a corridor, seen open only once Spot is
+    /// beside it. The best arc of the window creeps round at a few cm/s and its rollout ends
+    /// still in the corridor; turning on the spot first (`planner.turn_first`) and walking in
+    /// comes at least `TURN_FIRST_GAIN_M` nearer, so Spot stands and turns towards the door.
+    /// A round body's search is the arcs alone.
+    #[test]
+    fn a_long_body_beside_a_side_door_turns_on_the_spot_towards_it() {
+        // a corridor 1.6 m wide along x, a 1.2 m door in its left wall beside the robot, the
+        // goal in the room behind it
+        let (grid, classes) = map(|x, y| {
+            let left = (y - 0.825).abs() < 0.05 && x.abs() > 0.6;
+            let right = (y + 0.825).abs() < 0.05;
+            if left || right {
+                cell_class::SOLID
+            } else {
+                cell_class::FREE
+            }
+        });
+        let (clear, cost) = open_cost(&classes, grid, 4.0);
+        let goal = (0.0, 2.5);
+        let drive = |p: &PlannerParams| {
+            let route = route_to(p, grid, &classes, &cost, goal);
+            plan(p, grid, &cost, &clear, 0.3, 0.0, goal, Some(&route))
+        };
+        // Spot's own turn rate
+        let mut first = spot();
+        first.robot.max_angular_rps = 0.6;
+        let mut arcs = first.clone();
+        arcs.planner.turn_first = false;
+        assert!(first.planner.turn_first, "on by default");
+        let (
+            DwaOutcome::Drive {
+                gain_m: arc_gain, ..
+            },
+            DwaOutcome::Drive {
+                v, omega, gain_m, ..
+            },
+        ) = (drive(&arcs), drive(&first))
+        else {
+            panic!("both drive: {:?} {:?}", drive(&arcs), drive(&first));
+        };
+        assert_eq!(v, 0.0, "stands to turn");
+        assert!(omega > 0.3, "towards the door on the left: {omega}");
+        assert!(
+            gain_m > arc_gain + TURN_FIRST_GAIN_M,
+            "{gain_m} against {arc_gain}"
+        );
+        // a round body of the same reach never turns first
+        let mut round = first.clone();
+        (
+            round.robot.length_m,
+            round.robot.width_m,
+            round.robot.radius_m,
+        ) = (0.0, 0.0, 0.25);
+        assert!(matches!(drive(&round), DwaOutcome::Drive { v, .. } if v > 0.0));
     }
 
     /// Spot walked along a storefront that converged on its path until the only motion the
