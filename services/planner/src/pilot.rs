@@ -774,8 +774,10 @@ impl Pilot {
             // led away: stand (the window's next plan starts from standing) rather than drive on
             return away.then(|| Decision::drive(0.0, 0.0, flags, header));
         }
-        b.still_since = None;
         if b.tries >= max_tries {
+            // the tries spent: `blocked` for as long as every plan holds the robot still (the
+            // wait not started again, so the status does not fall back to `driving` between
+            // stops); a plan that moves it, progress or a new goal ends it
             let flags = flags | command_flags::BACKING_OUT;
             return Some(Decision::stop(
                 command_status::BLOCKED,
@@ -784,6 +786,7 @@ impl Pilot {
                 Some(header),
             ));
         }
+        b.still_since = None;
         b.tries += 1;
         // a long body: a way out by moves and turns on the spot first, searched on this map
         let maneuver_ns = self.params().maneuver_ns();

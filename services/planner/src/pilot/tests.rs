@@ -584,7 +584,8 @@ fn the_route_leads_round_a_wall_left_behind() {
 /// allowed only standing still, and stood with status `driving` until its time ran out. Held
 /// still for `planner.recovery_after_s`, it now backs out for `planner.recovery_s`, then plans
 /// forward again; after `planner.recovery_max` tries without getting nearer the goal it stops
-/// with the `blocked` status.
+/// with the `blocked` status, and stays stopped so (stop 77: it fell back to `driving` for
+/// `recovery_after_s` between stops).
 #[test]
 fn a_robot_held_still_backs_out_then_stops_blocked() {
     // glass on the right converging on the heading, a wall across 0.15 m past the nose
@@ -652,15 +653,24 @@ fn a_robot_held_still_backs_out_then_stops_blocked() {
         "{}",
         blocked.3
     );
+    // and stays blocked while every plan holds it still: no `driving` between the stops
+    for k in 1..=(2 * after / (100 * MS)) {
+        let held = at(now + after + k * 100 * MS);
+        assert_eq!(
+            (held.0, held.1, held.2),
+            (command_status::BLOCKED, 0.0, true),
+            "{k} maps after the stop: {held:?}"
+        );
+    }
     // a new goal: tries from none
-    p.goal(&goal(3.0, 0.0, t + now + after))
-        .expect("a good goal");
+    let now = now + 3 * after;
+    p.goal(&goal(3.0, 0.0, t + now)).expect("a good goal");
     let mut fresh = |dt: u64| {
         p.odom(&odom(t + dt)).expect("good odometry");
         p.on_map(&header(dt / (100 * MS)), trap.iter().copied(), t + dt)
     };
-    fresh(now + after + 100 * MS);
-    let again = fresh(now + 2 * after + 100 * MS);
+    fresh(now + 100 * MS);
+    let again = fresh(now + after + 100 * MS);
     assert!(
         again.v < 0.0 && again.flags & command_flags::BACKING_OUT != 0,
         "{again:?}"
