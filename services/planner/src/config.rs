@@ -154,12 +154,16 @@ pub struct PlannerConfig {
     /// out as before where the search finds none, s (0, the default: never — measured on the
     /// tune worlds it changed no total, docs/glass.md; a round body never needs it).
     pub maneuver_s: f64,
-    /// A long body whose best forward plan comes less than this much nearer the goal by the
-    /// route, while the route is shorter 0.5 m behind it than where it stands and the goal is
-    /// more than 1 m away (every rollout leads away: a door in the side of a corridor it is
-    /// driving past, seen open only behind it), stands and is held still as a plan that stops
-    /// it is, so that after `recovery_after_s` it maneuvers or backs out instead of driving on
-    /// away from the goal, m (0: never, the default; a round body never, it turns on the spot).
+    /// A long body whose best forward plan drives on (at least 0.03 m/s, turning slower than a
+    /// quarter of its top rate) and comes less than this much nearer the goal by the route,
+    /// while the route is shorter 0.5 m behind it than where it stands and the goal is more
+    /// than 1 m away (every rollout leads away: a door in the side of a corridor it is driving
+    /// past, seen open only behind it), is searched a way out by moves and turns on the spot
+    /// at once ([`crate::maneuver`]) and follows it (for `maneuver_s`, or 20 s where that is
+    /// 0; a try as a backing out is; a way that starts straight on is the plan's own and is
+    /// not followed); where none is found it drives on as planned, searched
+    /// again no sooner than 1 s later, and never again within 1 m of where it last followed
+    /// one, m (0: never; a round body never, it turns on the spot).
     pub still_gain_m: f64,
     /// A long body also weighs turning on the spot first: rollouts that turn in place to a
     /// heading up to half a turn away, at the top turn rate, then drive straight on for the

@@ -219,6 +219,18 @@ const AWAY_FAR_M: f64 = 1.0;
 
 /// How far behind the body the route is looked at for a way shorter than where it stands, m.
 const AWAY_LOOK_M: f32 = 0.5;
+/// A body led only away searches a way out at once, and after a search that found none no
+/// sooner than this again (a search that finds none spends its whole budget, some 20 ms), ns.
+const AWAY_SEARCH_EVERY_NS: u64 = 1_000_000_000;
+/// How long a body led only away follows a way out found for it when `planner.maneuver_s`
+/// does not say (0: a body held still backs out), ns.
+const AWAY_MANEUVER_NS: u64 = 20_000_000_000;
+/// A body led only away that has come back within this of where it last followed a way out
+/// drives on as planned: the way out led it back the same way (an office, `office s1400 i9`), m.
+const AWAY_AGAIN_M: f64 = 1.0;
+/// A body led only away drives on past what it came for when its plan turns slower than this
+/// share of its top turn rate.
+const AWAY_TURN_SHARE: f64 = 0.25;
 /// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
 /// again from none.
 const PROGRESS_M: f64 = 0.5;
@@ -234,6 +246,12 @@ struct BackOut {
     tries: u32,
     /// The distance to the goal then, m.
     progress_ref_m: f64,
+    /// When a search for a way out found none for a body led only away (monotonic ns): the
+    /// next is tried [`AWAY_SEARCH_EVERY_NS`] later at the soonest.
+    away_failed: Option<u64>,
+    /// Where (odometry frame) the last way out was found for a body led only away: it is not
+    /// searched again within [`AWAY_AGAIN_M`] of there.
+    away_at: Option<(f64, f64)>,
 }
 
 /// A long body following a way out ([`crate::maneuver`]): its moves with the poses they end
@@ -420,6 +438,8 @@ impl Default for BackOut {
             until: None,
             tries: 0,
             progress_ref_m: f64::INFINITY,
+            away_failed: None,
+            away_at: None,
         }
     }
 }
@@ -761,9 +781,56 @@ impl Pilot {
             && matches!(*outcome, DwaOutcome::Drive { routed: true, gain_m, .. }
                 if gain_m < still_gain_m)
             && self.route_lies_behind();
-        let still = away
-            || matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
-                if v.abs() < STILL.0 && omega.abs() < STILL.1);
+        let maneuver_ns = self.params().maneuver_ns();
+        if away {
+            // a body whose plan drives on (forward, nearly straight) is searched a way out at
+            // once, and it stands only to follow one found: where none is it drives on as
+            // planned. A plan that turns (at its start, headed away) turns towards the goal on
+            // its own — a maneuver found from there backed it towards the goal at backing
+            // speed — and one that stops is held still as any is
+            let max_turn = self.params().robot.max_angular_rps;
+            let follow_ns = if maneuver_ns > 0 {
+                maneuver_ns
+            } else {
+                AWAY_MANEUVER_NS
+            };
+            let b = &mut self.back_out;
+            let searched_lately = b
+                .away_failed
+                .is_some_and(|t| now.saturating_sub(t) < AWAY_SEARCH_EVERY_NS);
+            let driving_on = matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
+                if v >= STILL.0 && omega.abs() < AWAY_TURN_SHARE * max_turn);
+            let (x, y) = {
+                use mimnav_shared::pose::Pose2Ext as _;
+                (pose.x(), pose.y())
+            };
+            let been_here = b
+                .away_at
+                .is_some_and(|(ax, ay)| (x - ax).hypot(y - ay) < AWAY_AGAIN_M);
+            if driving_on && b.tries < max_tries && !searched_lately && !been_here {
+                // a way that starts straight on is the one the plan drives, at its speed
+                match self.planner.maneuver(grid, None) {
+                    Some(plan)
+                        if plan
+                            .moves
+                            .first()
+                            .is_some_and(|m| m.0 != crate::maneuver::Move::Forward) =>
+                    {
+                        b.still_since = None;
+                        b.tries += 1;
+                        b.away_at = Some((x, y));
+                        self.maneuver.follow(&plan, pose);
+                        self.maneuver.until = Some(now.saturating_add(follow_ns));
+                        if let Some(d) = self.maneuver_step(pose, flags, header) {
+                            return Some(d);
+                        }
+                    }
+                    _ => b.away_failed = Some(now),
+                }
+            }
+        }
+        let still = matches!(*outcome, DwaOutcome::Drive { v, omega, .. }
+            if v.abs() < STILL.0 && omega.abs() < STILL.1);
         let b = &mut self.back_out;
         if !still || after == 0 {
             b.still_since = None;
@@ -771,8 +838,7 @@ impl Pilot {
         }
         let since = *b.still_since.get_or_insert(now);
         if now.saturating_sub(since) < after {
-            // led away: stand (the window's next plan starts from standing) rather than drive on
-            return away.then(|| Decision::drive(0.0, 0.0, flags, header));
+            return None;
         }
         if b.tries >= max_tries {
             // the tries spent: `blocked` for as long as every plan holds the robot still (the
@@ -789,7 +855,6 @@ impl Pilot {
         b.still_since = None;
         b.tries += 1;
         // a long body: a way out by moves and turns on the spot first, searched on this map
-        let maneuver_ns = self.params().maneuver_ns();
         if maneuver_ns > 0
             && let Some(plan) = self.planner.maneuver(grid, None)
         {

@@ -1046,7 +1046,8 @@ fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
     let class_at = side_door_corridor(5.0);
     let to = SIDE_ROOM_GOAL;
     let mut params = spot_params();
-    params.planner.maneuver_s = 20.0;
+    // (the maneuvers of a body held still off: the way out is searched as the body drives on)
+    params.planner.maneuver_s = 0.0;
     params.planner.still_gain_m = 0.1;
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
     let farthest = |path: &[(f64, f64)]| path.iter().map(|p| p.0).fold(f64::MIN, f64::max);
@@ -1062,5 +1063,33 @@ fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
         farthest(&path) > 1.0,
         "without it, drove on along the corridor: reached x = {:.2}",
         farthest(&path)
+    );
+}
+
+/// Issue 22: a long body standing headed away from its goal (an office's random start heading)
+/// is led only away by every arc too, but it turns on the spot (`planner.turn_first`) rather
+/// than being searched a way out: the search's way backed Spot 1.9 m towards the goal at
+/// backing speed before it turned (`office s1400 i9`, a tune world, 20 s lost). Only a body
+/// driving on is searched a way out at once.
+#[test]
+fn a_long_body_standing_headed_away_turns_instead_of_maneuvering() {
+    let open = |_: f64, _: f64| cell_class::FREE;
+    let to = (-3.0, 0.3);
+    let mut params = spot_params();
+    params.planner.still_gain_m = 0.1;
+    let (path, flags) = drive_to(params, open, to, 30);
+    assert!(
+        flags.iter().all(|f| f & command_flags::MANEUVERING == 0),
+        "no maneuver: flags {:?}",
+        flags
+            .iter()
+            .position(|f| f & command_flags::MANEUVERING != 0)
+    );
+    let reached = path
+        .iter()
+        .position(|&(x, y)| (x - to.0).hypot(y - to.1) < 0.35);
+    assert!(
+        reached.is_some_and(|k| k < 150),
+        "the goal within 15 s: {reached:?}"
     );
 }
