@@ -160,8 +160,9 @@ pub struct PlannerConfig {
     /// than 1 m away (every rollout leads away: a door in the side of a corridor it is driving
     /// past, seen open only behind it), is searched a way out by moves and turns on the spot
     /// at once ([`crate::maneuver`]) and follows it (for `maneuver_s`, or 20 s where that is
-    /// 0; a try as a backing out is; a way that starts straight on is the plan's own and is
-    /// not followed); where none is found it drives on as planned, searched
+    /// 0; a try as a backing out is) where its first straight move is back (one going on
+    /// forward the window drives itself, faster); where none is found it drives on as planned,
+    /// searched
     /// again no sooner than 1 s later, and never again within 1 m of where it last followed
     /// one, m (0: never; a round body never, it turns on the spot).
     pub still_gain_m: f64,

@@ -228,6 +228,15 @@ const AWAY_MANEUVER_NS: u64 = 20_000_000_000;
 /// A body led only away that has come back within this of where it last followed a way out
 /// drives on as planned: the way out led it back the same way (an office, `office s1400 i9`), m.
 const AWAY_AGAIN_M: f64 = 1.0;
+/// Whether a way out's first straight move is back.
+fn first_straight_backs(plan: &crate::maneuver::Plan) -> bool {
+    use crate::maneuver::Move;
+    plan.moves
+        .iter()
+        .find(|(m, _)| matches!(m, Move::Forward | Move::Back))
+        .is_some_and(|(m, _)| *m == Move::Back)
+}
+
 /// A body led only away drives on past what it came for when its plan turns slower than this
 /// share of its top turn rate.
 const AWAY_TURN_SHARE: f64 = 0.25;
@@ -808,14 +817,10 @@ impl Pilot {
                 .away_at
                 .is_some_and(|(ax, ay)| (x - ax).hypot(y - ay) < AWAY_AGAIN_M);
             if driving_on && b.tries < max_tries && !searched_lately && !been_here {
-                // a way that starts straight on is the one the plan drives, at its speed
+                // only a way that first backs (the window never plans one): the rest of a way
+                // that goes on forward the window drives itself, faster (office s1400 i9)
                 match self.planner.maneuver(grid, None) {
-                    Some(plan)
-                        if plan
-                            .moves
-                            .first()
-                            .is_some_and(|m| m.0 != crate::maneuver::Move::Forward) =>
-                    {
+                    Some(plan) if first_straight_backs(&plan) => {
                         b.still_since = None;
                         b.tries += 1;
                         b.away_at = Some((x, y));
