@@ -162,9 +162,8 @@ pub struct PlannerConfig {
     /// at once ([`crate::maneuver`]) and follows it (for `maneuver_s`, or 20 s where that is
     /// 0; a try as a backing out is) where its first straight move is back (one going on
     /// forward the window drives itself, faster); where none is found it drives on as planned,
-    /// searched
-    /// again no sooner than 1 s later, and never again within 1 m of where it last followed
-    /// one, m (0: never; a round body never, it turns on the spot).
+    /// searched again no sooner than 1 s later, and never again within 1 m of where it last
+    /// followed one, m (0: never; a round body never, it turns on the spot).
     pub still_gain_m: f64,
     /// A long body also weighs turning on the spot first: rollouts that turn in place to a
     /// heading up to half a turn away, at the top turn rate, then drive straight on for the

@@ -228,6 +228,9 @@ const AWAY_MANEUVER_NS: u64 = 20_000_000_000;
 /// A body led only away that has come back within this of where it last followed a way out
 /// drives on as planned: the way out led it back the same way (an office, `office s1400 i9`), m.
 const AWAY_AGAIN_M: f64 = 1.0;
+/// A body led only away drives on past what it came for when its plan turns slower than this
+/// share of its top turn rate.
+const AWAY_TURN_SHARE: f64 = 0.25;
 /// Whether a way out's first straight move is back.
 fn first_straight_backs(plan: &crate::maneuver::Plan) -> bool {
     use crate::maneuver::Move;
@@ -237,9 +240,6 @@ fn first_straight_backs(plan: &crate::maneuver::Plan) -> bool {
         .is_some_and(|(m, _)| *m == Move::Back)
 }
 
-/// A body led only away drives on past what it came for when its plan turns slower than this
-/// share of its top turn rate.
-const AWAY_TURN_SHARE: f64 = 0.25;
 /// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
 /// again from none.
 const PROGRESS_M: f64 = 0.5;
@@ -824,9 +824,8 @@ impl Pilot {
                         b.still_since = None;
                         b.tries += 1;
                         b.away_at = Some((x, y));
-                        self.maneuver.follow(&plan, pose);
-                        self.maneuver.until = Some(now.saturating_add(follow_ns));
-                        if let Some(d) = self.maneuver_step(pose, flags, header) {
+                        let until = now.saturating_add(follow_ns);
+                        if let Some(d) = self.start_maneuver(&plan, pose, until, flags, header) {
                             return Some(d);
                         }
                     }
@@ -862,15 +861,27 @@ impl Pilot {
         // a long body: a way out by moves and turns on the spot first, searched on this map
         if maneuver_ns > 0
             && let Some(plan) = self.planner.maneuver(grid, None)
+            && let Some(d) =
+                self.start_maneuver(&plan, pose, now.saturating_add(maneuver_ns), flags, header)
         {
-            self.maneuver.follow(&plan, pose);
-            self.maneuver.until = Some(now.saturating_add(maneuver_ns));
-            if let Some(d) = self.maneuver_step(pose, flags, header) {
-                return Some(d);
-            }
+            return Some(d);
         }
         self.back_out.until = Some(now.saturating_add(lasts));
         self.step_back(grid, v0_omega0, goal, flags, header)
+    }
+
+    /// Follows `plan` until `until` (monotonic ns): its first step, or `None` when it has none.
+    fn start_maneuver(
+        &mut self,
+        plan: &crate::maneuver::Plan,
+        pose: &mimnav_shared::pose::Pose2,
+        until: u64,
+        flags: u8,
+        header: &MapHeader,
+    ) -> Option<Decision> {
+        self.maneuver.follow(plan, pose);
+        self.maneuver.until = Some(until);
+        self.maneuver_step(pose, flags, header)
     }
 
     /// While following a way out ([`Maneuvering::until`] not passed): the next move, or `None`

@@ -1039,8 +1039,8 @@ fn assert_maneuvered_to(path: &[(f64, f64)], flags: &[u8], to: (f64, f64)) {
 /// Issue 22 item 4: Spot drives along a corridor 1.3 m wide past the door in its side to the
 /// room with the goal: the door lies behind its centre, and every forward rollout leads away
 /// from the goal. The dynamic window, which scores a rollout that gains nothing by its speed,
-/// drove on along the corridor; with `planner.still_gain_m` such a plan holds the body still,
-/// so it stands and, after `planner.recovery_after_s`, maneuvers into the room.
+/// drove on along the corridor; with `planner.still_gain_m` the body driving on is searched a
+/// way out at once, and it stands and follows the way, which backs, into the room.
 #[test]
 fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
     let class_at = side_door_corridor(5.0);
