@@ -165,6 +165,16 @@ pub struct PlannerConfig {
     /// searched again no sooner than 1 s later, and never again within 1 m of where it last
     /// followed one, m (0: never; a round body never, it turns on the spot).
     pub still_gain_m: f64,
+    /// A way out found for a body led only away ([`still_gain_m`](Self::still_gain_m)) is
+    /// followed only where its backing, the back moves before its first forward one, is at most
+    /// this long: a door just passed lies about a body's length behind, and a way that backs
+    /// farther costs more time at backing speed than the window needs to find the way on, m
+    /// (0: no bound).
+    pub away_back_max_m: f64,
+    /// A way out followed for a body led only away hands back to the dynamic window once its
+    /// backing and the turns on the spot after it are done, instead of following the rest at
+    /// backing speed (false: the whole way is followed).
+    pub away_window_after_back: bool,
     /// A long body also weighs turning on the spot first: rollouts that turn in place to a
     /// heading up to half a turn away, at the top turn rate, then drive straight on for the
     /// rest of the horizon; one wins (the command: stand and turn) only where no arc of the
@@ -260,6 +270,8 @@ impl Default for PlannerConfig {
             recovery_max: 4,
             maneuver_s: 0.0,
             still_gain_m: 0.0,
+            away_back_max_m: 0.0,
+            away_window_after_back: false,
             turn_first: true,
             look_after_s: 3.0,
             look_s: 8.0,
@@ -386,6 +398,7 @@ impl PlannerConfig {
         );
         r.check("planner.maneuver_s", self.maneuver_s, 0.0, 600.0);
         r.check("planner.still_gain_m", self.still_gain_m, 0.0, 5.0);
+        r.check("planner.away_back_max_m", self.away_back_max_m, 0.0, 10.0);
         r.check(
             "planner.foliage_max_age_s",
             self.foliage_max_age_s,

@@ -240,6 +240,34 @@ fn first_straight_backs(plan: &crate::maneuver::Plan) -> bool {
         .is_some_and(|(m, _)| *m == Move::Back)
 }
 
+/// How many moves of a way out make its backing: every move up to and including its last back
+/// move before its first forward one, and the turns on the spot right after it.
+fn backing_moves(plan: &crate::maneuver::Plan) -> usize {
+    use crate::maneuver::Move;
+    let first_forward = plan
+        .moves
+        .iter()
+        .position(|(m, _)| *m == Move::Forward)
+        .unwrap_or(plan.moves.len());
+    let Some(last_back) = plan.moves[..first_forward]
+        .iter()
+        .rposition(|(m, _)| *m == Move::Back)
+    else {
+        return 0;
+    };
+    let turns = plan.moves[last_back + 1..first_forward].len();
+    last_back + 1 + turns
+}
+
+/// How far a way out backs before its first forward move, m (the straight line from its start
+/// to where the backing ends: moves are `step_m` each, turns on the spot move nothing).
+fn backing_m(plan: &crate::maneuver::Plan) -> f64 {
+    let n = backing_moves(plan);
+    plan.moves[..n]
+        .last()
+        .map_or(0.0, |(_, [x, y, _])| x.hypot(*y))
+}
+
 /// Nearer the goal by this much (m, straight line) is progress: the backing-out tries start
 /// again from none.
 const PROGRESS_M: f64 = 0.5;
@@ -274,6 +302,9 @@ struct Maneuvering {
     moves: Vec<(crate::maneuver::Move, [f64; 3])>,
     /// The first move not yet done.
     next: usize,
+    /// Only the way's backing is followed (`planner.away_window_after_back`), a way searched
+    /// anew included: the window drives the rest.
+    backing_only: bool,
 }
 
 /// A maneuver's straight move is done this near its end (m), a turn this near its heading
@@ -286,9 +317,14 @@ impl Maneuvering {
     /// Takes `plan` (robot frame at `pose`) as the way to follow.
     fn follow(&mut self, plan: &crate::maneuver::Plan, pose: &mimnav_shared::pose::Pose2) {
         use mimnav_shared::pose::Pose2Ext as _;
+        let n = if self.backing_only {
+            backing_moves(plan)
+        } else {
+            plan.moves.len()
+        };
         self.moves.clear();
         self.moves
-            .extend(plan.moves.iter().map(|&(mv, [x, y, th])| {
+            .extend(plan.moves[..n].iter().map(|&(mv, [x, y, th])| {
                 let (fx, fy) = pose.to_fixed(x, y);
                 (mv, [fx, fy, crate::maneuver::wrap(pose.yaw() + th)])
             }));
@@ -798,6 +834,8 @@ impl Pilot {
             // its own — a maneuver found from there backed it towards the goal at backing
             // speed — and one that stops is held still as any is
             let max_turn = self.params().robot.max_angular_rps;
+            let back_max_m = self.params().planner.away_back_max_m;
+            let window_after = self.params().planner.away_window_after_back;
             let follow_ns = if maneuver_ns > 0 {
                 maneuver_ns
             } else {
@@ -820,11 +858,15 @@ impl Pilot {
                 // only a way that first backs (the window never plans one): the rest of a way
                 // that goes on forward the window drives itself, faster (office s1400 i9)
                 match self.planner.maneuver(grid, None) {
-                    Some(plan) if first_straight_backs(&plan) => {
+                    Some(plan)
+                        if first_straight_backs(&plan)
+                            && (back_max_m <= 0.0 || backing_m(&plan) <= back_max_m) =>
+                    {
                         b.still_since = None;
                         b.tries += 1;
                         b.away_at = Some((x, y));
                         let until = now.saturating_add(follow_ns);
+                        self.maneuver.backing_only = window_after;
                         if let Some(d) = self.start_maneuver(&plan, pose, until, flags, header) {
                             return Some(d);
                         }
@@ -859,6 +901,7 @@ impl Pilot {
         b.still_since = None;
         b.tries += 1;
         // a long body: a way out by moves and turns on the spot first, searched on this map
+        self.maneuver.backing_only = false;
         if maneuver_ns > 0
             && let Some(plan) = self.planner.maneuver(grid, None)
             && let Some(d) =

@@ -1093,3 +1093,72 @@ fn a_long_body_standing_headed_away_turns_instead_of_maneuvering() {
         "the goal within 15 s: {reached:?}"
     );
 }
+
+/// A way out's backing is the moves up to its last back move before its first forward one and
+/// the turns right after it; its length, the straight line from the start to where it ends.
+#[test]
+fn a_way_outs_backing_is_its_back_moves_and_the_turns_after_them() {
+    use crate::maneuver::{Move, Plan};
+    let plan = |moves: &[(Move, [f64; 3])]| Plan {
+        moves: moves.to_vec(),
+        to_go_m: 0.0,
+    };
+    let backing = plan(&[
+        (Move::Back, [-0.1, 0.0, 0.0]),
+        (Move::Back, [-0.2, 0.0, 0.0]),
+        (Move::Left, [-0.2, 0.0, 0.2]),
+        (Move::Back, [-0.3, -0.02, 0.2]),
+        (Move::Left, [-0.3, -0.02, 0.4]),
+        (Move::Right, [-0.3, -0.02, 0.2]),
+        (Move::Forward, [-0.2, 0.0, 0.2]),
+        (Move::Back, [-0.3, -0.02, 0.2]),
+    ]);
+    assert_eq!(super::backing_moves(&backing), 6);
+    assert!((super::backing_m(&backing) - 0.3f64.hypot(0.02)).abs() < 1e-12);
+    let forward_first = plan(&[
+        (Move::Left, [0.0, 0.0, 0.2]),
+        (Move::Forward, [0.1, 0.0, 0.2]),
+        (Move::Back, [0.0, 0.0, 0.2]),
+    ]);
+    assert_eq!(super::backing_moves(&forward_first), 0);
+    assert_eq!(super::backing_m(&forward_first), 0.0);
+    assert_eq!(super::backing_moves(&plan(&[])), 0);
+}
+
+/// Issue 22: the way out of [`a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on`]
+/// followed only through its backing (`planner.away_window_after_back`): the window drives the
+/// rest into the room, and the goal is reached as with the whole way followed. A bound on the
+/// backing shorter than the way's (`planner.away_back_max_m`) leaves the body driving on.
+#[test]
+fn a_way_out_followed_through_its_backing_then_the_window_drives_in() {
+    let class_at = side_door_corridor(5.0);
+    let to = SIDE_ROOM_GOAL;
+    let mut params = spot_params();
+    params.planner.maneuver_s = 0.0;
+    params.planner.still_gain_m = 0.1;
+    params.planner.away_window_after_back = true;
+    params.planner.away_back_max_m = 1.5;
+    let (path, flags) = drive_to(params.clone(), class_at, to, 60);
+    assert_maneuvered_to(&path, &flags, to);
+    // the maneuver ended before the goal: the last commands are the window's
+    let last_maneuver = flags
+        .iter()
+        .rposition(|f| f & command_flags::MANEUVERING != 0)
+        .expect("a maneuver");
+    let arrived = path
+        .iter()
+        .position(|&(x, y)| (x - to.0).hypot(y - to.1) < 0.35)
+        .expect("arrived");
+    assert!(
+        last_maneuver + 5 < arrived,
+        "the window drove in: last maneuvering command {last_maneuver}, arrived at {arrived}"
+    );
+    params.planner.away_back_max_m = 0.05;
+    let (path, flags) = drive_to(params, class_at, to, 60);
+    assert!(
+        flags.iter().all(|f| f & command_flags::MANEUVERING == 0),
+        "a way backing more than 5 cm not followed"
+    );
+    let farthest = path.iter().map(|p| p.0).fold(f64::MIN, f64::max);
+    assert!(farthest > 1.0, "drove on: reached x = {farthest:.2}");
+}
