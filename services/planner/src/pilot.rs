@@ -240,23 +240,17 @@ fn first_straight_backs(plan: &crate::maneuver::Plan) -> bool {
         .is_some_and(|(m, _)| *m == Move::Back)
 }
 
-/// How many moves of a way out make its backing: every move up to and including its last back
-/// move before its first forward one, and the turns on the spot right after it.
+/// How many moves of a way out make its backing: every move before its first forward one, when
+/// a back move is among them (so the turns on the spot after the last back move), else none.
 fn backing_moves(plan: &crate::maneuver::Plan) -> usize {
     use crate::maneuver::Move;
-    let first_forward = plan
-        .moves
-        .iter()
+    let first_forward = (plan.moves.iter())
         .position(|(m, _)| *m == Move::Forward)
         .unwrap_or(plan.moves.len());
-    let Some(last_back) = plan.moves[..first_forward]
+    let backs = plan.moves[..first_forward]
         .iter()
-        .rposition(|(m, _)| *m == Move::Back)
-    else {
-        return 0;
-    };
-    let turns = plan.moves[last_back + 1..first_forward].len();
-    last_back + 1 + turns
+        .any(|(m, _)| *m == Move::Back);
+    if backs { first_forward } else { 0 }
 }
 
 /// How far a way out backs before its first forward move, m (the straight line from its start

@@ -1123,6 +1123,17 @@ fn a_way_outs_backing_is_its_back_moves_and_the_turns_after_them() {
     assert_eq!(super::backing_moves(&forward_first), 0);
     assert_eq!(super::backing_m(&forward_first), 0.0);
     assert_eq!(super::backing_moves(&plan(&[])), 0);
+    // following only the backing keeps its six moves; the whole way, all eight
+    let mut m = super::Maneuvering {
+        backing_only: true,
+        ..Default::default()
+    };
+    let at = mimnav_shared::pose::Pose2::identity();
+    m.follow(&backing, &at);
+    assert_eq!(m.moves.len(), 6);
+    m.backing_only = false;
+    m.follow(&backing, &at);
+    assert_eq!(m.moves.len(), 8);
 }
 
 /// Issue 22: the way out of [`a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on`]
@@ -1140,7 +1151,9 @@ fn a_way_out_followed_through_its_backing_then_the_window_drives_in() {
     params.planner.away_back_max_m = 1.5;
     let (path, flags) = drive_to(params.clone(), class_at, to, 60);
     assert_maneuvered_to(&path, &flags, to);
-    // the maneuver ended before the goal: the last commands are the window's
+    // the maneuver ended before the goal: the last commands are the window's (this way has no
+    // forward move after its backing, so the whole way ends there too: what the key cuts is
+    // held by `a_way_outs_backing_is_its_back_moves_and_the_turns_after_them`)
     let last_maneuver = flags
         .iter()
         .rposition(|f| f & command_flags::MANEUVERING != 0)
