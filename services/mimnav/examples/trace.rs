@@ -11,7 +11,10 @@
 //! Environment: `TRACE_NEAR=K` prints the classes within K cells of the robot and the route's
 //! lengths around it every EVERY revolutions; with it, `TRACE_ROUTE=R` the route's lengths and
 //! the cost of a metre into each coarse cell on a 0.25 m lattice within R m; `TRACE_AT=X,Y,R`
-//! each revolution's class counts within R m of the world point (X, Y).
+//! each revolution's class counts within R m of the world point (X, Y); `TRACE_PLANNER=1` prints the
+//! planner's copy of the map instead of the mapper's (the foliage obstacles made solid); `TRACE_FOLIAGE=1` the
+//! returns the foliage classifier calls obstacles, in the world frame (the first twelve; `all`:
+//! every one).
 use std::path::PathBuf;
 
 use mimnav_config::Config;
@@ -75,6 +78,9 @@ fn run() -> anyhow::Result<()> {
         let f: Vec<f64> = v.split(',').filter_map(|s| s.trim().parse().ok()).collect();
         (f.len() == 3).then(|| [f[0], f[1], f[2]])
     });
+    // TRACE_FOLIAGE=1: each revolution, the returns the foliage classifier calls obstacles (which
+    // the planner draws solid), in the world frame
+    let foliage = std::env::var("TRACE_FOLIAGE").ok();
     let config_path = config_path.map(PathBuf::from);
     let config =
         Config::resolve(config_path.as_deref(), &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -113,9 +119,17 @@ fn run() -> anyhow::Result<()> {
         if let Some([ax, ay, ar]) = at {
             print_at(grid, run.classes(), pose.to_local(ax, ay), ar);
         }
+        if let Some(f) = &foliage {
+            print_foliage(&pose, run.verdict(), f == "all");
+        }
         if n % every == 0 {
             if near > 0 {
-                print_near(grid, run.classes(), run.pilot().planner().route(), near);
+                // TRACE_PLANNER=1: the planner's copy (the foliage obstacles made solid)
+                let classes = match std::env::var("TRACE_PLANNER").is_ok_and(|v| v == "1") {
+                    true => run.pilot().classes(),
+                    false => run.classes(),
+                };
+                print_near(grid, classes, run.pilot().planner().route(), near);
             }
             img.write_png(&out.join(format!("rev{n:04}.png")))?;
         }
@@ -129,6 +143,37 @@ fn run() -> anyhow::Result<()> {
     }
     println!("outcome {:?}", run.sim().outcome());
     Ok(())
+}
+
+/// The foliage verdict's obstacle returns in the world frame (the sensor frame is the robot's,
+/// as the planner draws them): their count and the first twelve (`all`: every one).
+fn print_foliage(
+    pose: &mimnav_shared::pose::Pose2,
+    verdict: &[mimnav_shared::topics::FoliageReturn],
+    all: bool,
+) {
+    use mimnav_shared::topics::foliage_class;
+    let points: Vec<String> = (verdict.iter())
+        .filter(|r| r.class == foliage_class::OBSTACLE && r.range_m > 0.0)
+        .map(|r| {
+            let (s, c) = f64::from(r.angle_rad).sin_cos();
+            let p = pose.transform_point(&mimnav_shared::pose::Point2::new(
+                f64::from(r.range_m) * c,
+                f64::from(r.range_m) * s,
+            ));
+            format!("({:.2},{:.2})", p.x, p.y)
+        })
+        .collect();
+    let shown = if all {
+        points.len()
+    } else {
+        points.len().min(12)
+    };
+    println!(
+        "  foliage obstacles {}: {}",
+        points.len(),
+        points[..shown].join(" ")
+    );
 }
 
 /// How many cells of each class lie within `r` m of `(x, y)` (the robot's frame).
