@@ -639,10 +639,8 @@ impl Panes {
                             run_bins.clear();
                         }
                         OPEN => {
-                            // an unseen stretch with open evidence on both sides, no longer
-                            // than `OPEN_GAP_M`, is a hole in the sampling of one opening (a
-                            // past ring every `HISTORY_STEP_M`, a cone of 2·d·tan 2.8°), not a
-                            // pane between two openings
+                            // a short hole between two stretches seen open: one opening
+                            // sampled in strips, not a pane (`OPEN_GAP_M`)
                             if run.is_some_and(|(r, from_open)| from_open && r <= gap_bins) {
                                 for &q in &run_bins {
                                     self.reach[q] = false;
@@ -883,12 +881,18 @@ mod tests {
     }
 
     /// A pane along y = −0.5 m seen often enough to be extended, its glass and open evidence
-    /// at the cells of x = 0.05·k m for the given k, held alone; and a 8 m grid of 5 cm cells.
+    /// at the cells of x = 0.05·k m for the given k, held alone; and an 8 m grid of 5 cm cells.
     fn pane_along_y_minus_half(
         glass: impl IntoIterator<Item = i32>,
         open: impl IntoIterator<Item = i32>,
     ) -> (Panes, GridSpec) {
         let cell_m = 0.05;
+        fn fill(evidence: &mut Evidence, ks: impl IntoIterator<Item = i32>) {
+            for k in ks {
+                let x = 0.05 * f64::from(k);
+                evidence.insert(key(x, -0.5, 0.05), (x, -0.5, 1));
+            }
+        }
         let mut pane = Pane {
             glass: HashMap::new(),
             open: HashMap::new(),
@@ -898,15 +902,8 @@ mod tests {
             last_revolution_ns: 1,
             replayed: true,
         };
-        for (evidence, ks) in [
-            (&mut pane.glass, glass.into_iter().collect::<Vec<_>>()),
-            (&mut pane.open, open.into_iter().collect()),
-        ] {
-            for k in ks {
-                let x = cell_m * f64::from(k);
-                evidence.insert(key(x, -0.5, cell_m), (x, -0.5, 1));
-            }
-        }
+        fill(&mut pane.glass, glass);
+        fill(&mut pane.open, open);
         let mut panes = Panes::new(cell_m);
         panes.panes.push(pane);
         let grid = GridSpec {

@@ -11,10 +11,10 @@
 //! Environment: `TRACE_NEAR=K` prints the classes within K cells of the robot and the route's
 //! lengths around it every EVERY revolutions; with it, `TRACE_ROUTE=R` the route's lengths and
 //! the cost of a metre into each coarse cell on a 0.25 m lattice within R m; `TRACE_AT=X,Y,R`
-//! each revolution's class counts within R m of the world point (X, Y); `TRACE_PLANNER=1` prints the
-//! planner's copy of the map instead of the mapper's (the foliage obstacles made solid); `TRACE_FOLIAGE=1` the
-//! returns the foliage classifier calls obstacles, in the world frame (the first twelve; `all`:
-//! every one).
+//! each revolution's class counts within R m of the world point (X, Y); `TRACE_PLANNER=1`
+//! `TRACE_NEAR` prints the planner's copy of the map instead of the mapper's (the foliage
+//! obstacles made solid); `TRACE_FOLIAGE=1` each revolution's returns the foliage classifier
+//! calls obstacles, in the world frame (the first twelve; `TRACE_FOLIAGE=all`: every one).
 use std::path::PathBuf;
 
 use mimnav_config::Config;
@@ -78,9 +78,10 @@ fn run() -> anyhow::Result<()> {
         let f: Vec<f64> = v.split(',').filter_map(|s| s.trim().parse().ok()).collect();
         (f.len() == 3).then(|| [f[0], f[1], f[2]])
     });
-    // TRACE_FOLIAGE=1: each revolution, the returns the foliage classifier calls obstacles (which
-    // the planner draws solid), in the world frame
+    // TRACE_FOLIAGE=1 (or all): the returns the foliage classifier calls obstacles, which the
+    // planner draws solid; TRACE_PLANNER=1: the planner's copy of the map for TRACE_NEAR
     let foliage = std::env::var("TRACE_FOLIAGE").ok();
+    let planner_map = std::env::var("TRACE_PLANNER").is_ok_and(|v| v == "1");
     let config_path = config_path.map(PathBuf::from);
     let config =
         Config::resolve(config_path.as_deref(), &sets).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -124,8 +125,7 @@ fn run() -> anyhow::Result<()> {
         }
         if n % every == 0 {
             if near > 0 {
-                // TRACE_PLANNER=1: the planner's copy (the foliage obstacles made solid)
-                let classes = match std::env::var("TRACE_PLANNER").is_ok_and(|v| v == "1") {
+                let classes = match planner_map {
                     true => run.pilot().classes(),
                     false => run.classes(),
                 };
