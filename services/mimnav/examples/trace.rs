@@ -11,7 +11,7 @@
 //! Environment: `TRACE_NEAR=K` prints the classes within K cells of the robot and the route's
 //! lengths around it every EVERY revolutions; with it, `TRACE_ROUTE=R` the route's lengths and
 //! the cost of a metre into each coarse cell on a 0.25 m lattice within R m; `TRACE_AT=X,Y,R`
-//! each revolution's class counts within R m of the world point (X, Y); `TRACE_PLANNER=1`
+//! each revolution's class counts within R m of the world point (X, Y); with `TRACE_PLANNER=1`
 //! `TRACE_NEAR` prints the planner's copy of the map instead of the mapper's (the foliage
 //! obstacles made solid); `TRACE_FOLIAGE=1` each revolution's returns the foliage classifier
 //! calls obstacles, in the world frame (the first twelve; `TRACE_FOLIAGE=all`: every one).
@@ -125,9 +125,10 @@ fn run() -> anyhow::Result<()> {
         }
         if n % every == 0 {
             if near > 0 {
-                let classes = match planner_map {
-                    true => run.pilot().classes(),
-                    false => run.classes(),
+                let classes = if planner_map {
+                    run.pilot().classes()
+                } else {
+                    run.classes()
                 };
                 print_near(grid, classes, run.pilot().planner().route(), near);
             }
