@@ -195,6 +195,32 @@ fn cell(s: &ClassScore) -> String {
     format!("{:.3} {:.3} {:.3}", s.precision(), s.recall(), s.f_score())
 }
 
+/// The mean F-score of one column over the worlds that hold its class (the mean row of a run
+/// over several worlds: what the evaluation reports a family by).
+#[derive(Debug, Clone, Copy, Default)]
+struct MeanF {
+    sum: f64,
+    worlds: usize,
+}
+
+impl MeanF {
+    /// Takes one world's score of the class; a world without the class does not count.
+    fn add(&mut self, s: &ClassScore) {
+        if s.tp + s.fn_ > 0 {
+            self.sum += s.f_score();
+            self.worlds += 1;
+        }
+    }
+
+    /// "F (of N)", or – where no world held the class.
+    fn cell(&self) -> String {
+        if self.worlds == 0 {
+            return "     –     ".into();
+        }
+        format!("F {:.3} (of {})", self.sum / self.worlds as f64, self.worlds)
+    }
+}
+
 /// The worlds in the folder of the config's `sim.world` whose file names start with `prefix`,
 /// sorted.
 pub fn bundled_worlds(config: &Config, prefix: &str) -> Result<Vec<PathBuf>> {
@@ -233,8 +259,20 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
         "| world | solid P R F | passable P R F | glass P R F | glass at the end (P R F) | glass of the panes faced (P R F) | solid, obstacles hidden in grass left out | revolutions | route | mapper µs/rev |"
     )?;
     outln!("|---|---|---|---|---|---|---|---|---|---|")?;
+    // solid, passable, glass, glass at the end, glass of the panes faced, solid visible
+    let mut means = [MeanF::default(); 6];
     for path in &worlds {
         let s = score_world(config, path, seed, args.range, args.warmup)?;
+        for (m, c) in means.iter_mut().zip([
+            &s.total.solid,
+            &s.total.passable,
+            &s.total.glass,
+            &s.last.glass,
+            &s.faced.glass,
+            &s.visible.solid,
+        ]) {
+            m.add(c);
+        }
         let outcome = match s.outcome {
             Outcome::Running | Outcome::GoalReached => "done".to_string(),
             Outcome::Contact(i) => format!("contact with object {i}"),
@@ -258,12 +296,33 @@ pub fn run(config: &Config, args: &ScoreMapArgs) -> Result<ExitCode> {
             s.mapper_us
         )?;
     }
+    if worlds.len() > 1 {
+        let [solid, passable, glass, end, faced, visible] = means.map(|m| m.cell());
+        outln!(
+            "| mean F of the {} worlds holding the class | {solid} | {passable} | {glass} | {end} | {faced} | {visible} | | | |",
+            worlds.len()
+        )?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The mean row averages a column's F-score over the worlds that hold its class: a world
+    /// without it (no true cells) is left out, not counted as 0.
+    #[test]
+    fn the_mean_f_leaves_out_worlds_without_the_class() {
+        let score = |tp, fp, fn_| ClassScore { tp, fp, fn_ };
+        let mut m = MeanF::default();
+        assert_eq!(m.cell().trim(), "–");
+        m.add(&score(8, 2, 0)); // P 0.8, R 1: F 0.889
+        m.add(&score(0, 5, 0)); // the class not in this world
+        m.add(&score(5, 0, 5)); // P 1, R 0.5: F 0.667
+        assert_eq!(m.worlds, 2);
+        assert_eq!(m.cell(), "F 0.778 (of 2)");
+    }
 
     /// A drive along x beside one pane it faces (its perpendicular's foot slides along it) and
     /// towards one it never faces (on a line parallel to the drive, beyond its end): the glass of
