@@ -217,7 +217,11 @@ impl MeanF {
         if self.worlds == 0 {
             return "     –     ".into();
         }
-        format!("F {:.3} (of {})", self.sum / self.worlds as f64, self.worlds)
+        format!(
+            "F {:.3} (of {})",
+            self.sum / self.worlds as f64,
+            self.worlds
+        )
     }
 }
 
