@@ -158,7 +158,9 @@ pub struct PlannerConfig {
     /// quarter of its top rate) and comes less than this much nearer the goal by the route,
     /// while the route is shorter 0.5 m behind it than where it stands and the goal is more
     /// than 1 m away (every rollout leads away: a door in the side of a corridor it is driving
-    /// past, seen open only behind it), is searched a way out by moves and turns on the spot
+    /// past, seen open only behind it), beside a pane and between two sides (a glass corridor:
+    /// a door in glass is seen open only abeam, and the body has no room to turn; elsewhere the
+    /// window's own turn is quicker), is searched a way out by moves and turns on the spot
     /// at once ([`crate::maneuver`]) and follows it (for `maneuver_s`, or 20 s where that is
     /// 0; a try as a backing out is) where its first straight move is back (one going on
     /// forward the window drives itself, faster); where none is found it drives on as planned,
@@ -269,8 +271,8 @@ impl Default for PlannerConfig {
             recovery_mps: 0.15,
             recovery_max: 4,
             maneuver_s: 0.0,
-            still_gain_m: 0.0,
-            away_back_max_m: 0.0,
+            still_gain_m: 0.1,
+            away_back_max_m: 2.0,
             away_window_after_back: false,
             turn_first: true,
             look_after_s: 3.0,

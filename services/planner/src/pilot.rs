@@ -24,8 +24,8 @@ use mimnav_shared::grid::GridSpec;
 use mimnav_shared::hop::Hop;
 use mimnav_shared::pose::{NonFiniteOdometry, check_odometry, odom_pose};
 use mimnav_shared::topics::{
-    FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, command_flags,
-    command_status, foliage_class, goal_flags,
+    FoliageHeader, FoliageReturn, Goal, MapHeader, Odometry, VelocityCommand, cell_class,
+    command_flags, command_status, foliage_class, goal_flags,
 };
 
 use crate::dwa::DwaOutcome;
@@ -216,6 +216,17 @@ const STILL: (f64, f64) = (0.03, 0.05);
 /// A long body counts as led away ([`crate::config::PlannerConfig::still_gain_m`]) only
 /// farther than this from the goal by the route, m.
 const AWAY_FAR_M: f64 = 1.0;
+
+/// A body led away counts as beside a pane with this many glass or suspected-glass cells ...
+const AWAY_PANE_CELLS: usize = 6;
+/// ... within this distance of its centre, m.
+const AWAY_PANE_M: f64 = 1.2;
+/// A body led away counts as in a corridor with this many blocking cells on each side ...
+const AWAY_SIDE_CELLS: usize = 3;
+/// ... within this distance of its axis, m ...
+const AWAY_SIDE_M: f64 = 1.0;
+/// ... and this far ahead of or behind its centre, m.
+const AWAY_SIDE_ALONG_M: f64 = 0.6;
 
 /// How far behind the body the route is looked at for a way shorter than where it stands, m.
 const AWAY_LOOK_M: f32 = 0.5;
@@ -819,7 +830,9 @@ impl Pilot {
             && !matches!(self.params().robot.body(), Body::Round(_))
             && matches!(*outcome, DwaOutcome::Drive { routed: true, gain_m, .. }
                 if gain_m < still_gain_m)
-            && self.route_lies_behind();
+            && self.route_lies_behind()
+            && beside_a_pane(&self.classes, grid)
+            && between_two_sides(&self.classes, grid);
         let maneuver_ns = self.params().maneuver_ns();
         if away {
             // a body whose plan drives on (forward, nearly straight) is searched a way out at
@@ -1258,6 +1271,55 @@ impl Pilot {
         self.seq += 1;
         cmd
     }
+}
+
+/// The cells of `grid` (robot frame: x ahead, y to the left) within `reach_m` of the body's
+/// centre on each axis, with their classes from `classes` (row-major, as the plan's).
+fn cells_near(
+    classes: &[u8],
+    grid: GridSpec,
+    reach_m: f64,
+) -> impl Iterator<Item = (f64, f64, u8)> + '_ {
+    let n = grid.cells;
+    let reach = (reach_m / f64::from(grid.cell_m)).ceil() as usize;
+    let (lo, hi) = ((n / 2).saturating_sub(reach), (n / 2 + reach).min(n));
+    (lo..hi).flat_map(move |r| {
+        (lo..hi).filter_map(move |c| {
+            let (x, y) = grid.center_of(r, c);
+            let class = *classes.get(r * n + c)?;
+            Some((f64::from(x), f64::from(y), class))
+        })
+    })
+}
+
+/// A pane's line (glass or suspected glass) runs beside the body: [`AWAY_PANE_CELLS`] such
+/// cells within [`AWAY_PANE_M`] of its centre. A door in a pane is seen open only as the sensor
+/// comes abeam of it, so a body led away there has just passed one; a door in a wall or a
+/// curtain is seen from afar.
+fn beside_a_pane(classes: &[u8], grid: GridSpec) -> bool {
+    cells_near(classes, grid, AWAY_PANE_M)
+        .filter(|&(x, y, class)| x.hypot(y) <= AWAY_PANE_M && cell_class::is_glass(class))
+        .count()
+        >= AWAY_PANE_CELLS
+}
+
+/// The body stands between two sides: [`AWAY_SIDE_CELLS`] blocking cells (solid, glass or
+/// suspected glass) to its left and as many to its right, within [`AWAY_SIDE_M`] of its axis
+/// and [`AWAY_SIDE_ALONG_M`] of its centre along it. A corridor, where a long body has no room
+/// to turn into a door it passed; beside a shop front, open on its other side, the window's
+/// own turn is quicker than a way out backed at recovery speed.
+fn between_two_sides(classes: &[u8], grid: GridSpec) -> bool {
+    let (mut left, mut right) = (0, 0);
+    for (x, y, class) in cells_near(classes, grid, AWAY_SIDE_M) {
+        if x.abs() <= AWAY_SIDE_ALONG_M && y.abs() <= AWAY_SIDE_M && cell_class::blocks(class) {
+            if y > 0.0 {
+                left += 1;
+            } else {
+                right += 1;
+            }
+        }
+    }
+    left >= AWAY_SIDE_CELLS && right >= AWAY_SIDE_CELLS
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! Every fail-safe rule of the planner service, without IPC or root.
 
 use super::*;
-use mimnav_shared::topics::{MapHeader, cell_class};
+use mimnav_shared::topics::MapHeader;
 
 const S: u64 = 1_000_000_000;
 const MS: u64 = 1_000_000;
@@ -954,13 +954,21 @@ fn a_stretch_the_robot_stands_before_is_given_up_for_another_way() {
 /// 1 m wide in its right wall behind the start (x from −1.1 to −0.1) into a room below it; the
 /// robot starts at the origin headed along the corridor.
 fn side_door_corridor(end_x: f64) -> impl Fn(f64, f64) -> u8 + Copy {
+    side_door_corridor_of(end_x, cell_class::SOLID)
+}
+
+/// [`side_door_corridor`] with its two long sides of cell class `sides` (glass: a glass
+/// corridor, the door in a pane's line).
+fn side_door_corridor_of(end_x: f64, sides: u8) -> impl Fn(f64, f64) -> u8 + Copy {
     move |x: f64, y: f64| {
         let wall = |d: f64| d.abs() < 0.05;
         let door = (-1.1..-0.1).contains(&x);
         let corridor_wall = wall(y - 0.75) && x < end_x || wall(y + 0.55) && !door && x < end_x;
         let ends = wall(x - end_x) && (-0.55..0.75).contains(&y) || wall(x + 4.0);
         let room = wall(y + 3.5) || wall(x - 4.0) && y < -0.55;
-        if corridor_wall || ends || room {
+        if corridor_wall {
+            sides
+        } else if ends || room {
             cell_class::SOLID
         } else {
             cell_class::FREE
@@ -1036,14 +1044,16 @@ fn assert_maneuvered_to(path: &[(f64, f64)], flags: &[u8], to: (f64, f64)) {
     );
 }
 
-/// Issue 22 item 4: Spot drives along a corridor 1.3 m wide past the door in its side to the
-/// room with the goal: the door lies behind its centre, and every forward rollout leads away
+/// Issue 22 item 4: Spot drives along a glass corridor 1.3 m wide past the door in its side to
+/// the room with the goal: the door lies behind its centre, and every forward rollout leads away
 /// from the goal. The dynamic window, which scores a rollout that gains nothing by its speed,
 /// drove on along the corridor; with `planner.still_gain_m` the body driving on is searched a
-/// way out at once, and it stands and follows the way, which backs, into the room.
+/// way out at once, and it stands and follows the way, which backs, into the room. Only beside
+/// a pane (a door in glass is seen open only abeam) and between two sides: between walls it
+/// drives on.
 #[test]
 fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
-    let class_at = side_door_corridor(5.0);
+    let class_at = side_door_corridor_of(5.0, cell_class::GLASS);
     let to = SIDE_ROOM_GOAL;
     let mut params = spot_params();
     // (the maneuvers of a body held still off: the way out is searched as the body drives on)
@@ -1057,6 +1067,13 @@ fn a_long_body_led_only_away_stands_and_maneuvers_instead_of_driving_on() {
         farthest(&path)
     );
     assert_maneuvered_to(&path, &flags, to);
+    let walls = side_door_corridor(5.0);
+    let (path, flags) = drive_to(params.clone(), walls, to, 60);
+    assert!(
+        farthest(&path) > 1.0 && flags.iter().all(|f| f & command_flags::MANEUVERING == 0),
+        "between walls, drove on along the corridor: reached x = {:.2}",
+        farthest(&path)
+    );
     params.planner.still_gain_m = 0.0;
     let (path, _) = drive_to(params, class_at, to, 60);
     assert!(
@@ -1142,7 +1159,7 @@ fn a_way_outs_backing_is_its_back_moves_and_the_turns_after_them() {
 /// backing shorter than the way's (`planner.away_back_max_m`) leaves the body driving on.
 #[test]
 fn a_way_out_followed_through_its_backing_then_the_window_drives_in() {
-    let class_at = side_door_corridor(5.0);
+    let class_at = side_door_corridor_of(5.0, cell_class::GLASS);
     let to = SIDE_ROOM_GOAL;
     let mut params = spot_params();
     params.planner.maneuver_s = 0.0;
@@ -1174,4 +1191,49 @@ fn a_way_out_followed_through_its_backing_then_the_window_drives_in() {
     );
     let farthest = path.iter().map(|p| p.0).fold(f64::MIN, f64::max);
     assert!(farthest > 1.0, "drove on: reached x = {farthest:.2}");
+}
+
+/// The classes of [`grid`] drawn from `class_at` in the robot frame (x ahead, y to the left).
+fn classes_of(class_at: impl Fn(f64, f64) -> u8) -> Vec<u8> {
+    let g = grid();
+    let mut classes = vec![cell_class::FREE; g.len()];
+    for r in 0..g.cells {
+        for c in 0..g.cells {
+            let (x, y) = g.center_of(r, c);
+            classes[g.index(r, c)] = class_at(f64::from(x), f64::from(y));
+        }
+    }
+    classes
+}
+
+/// Issue 22: `planner.still_gain_m` acts beside a pane and between two sides only. A glass
+/// corridor 1.3 m wide is both; a shop front's glass on one side, with the room open on the
+/// other, is beside a pane but not between two sides; a corridor of walls is between two sides
+/// but beside no pane; a corridor 3 m wide (1.5 m to either side) has room to turn.
+#[test]
+fn a_way_out_at_once_is_searched_in_a_glass_corridor_only() {
+    let line = |d: f64| d.abs() < 0.05;
+    let corridor = |left: f64, right: f64, left_class: u8, right_class: u8| {
+        classes_of(move |_, y| {
+            if line(y - left) {
+                left_class
+            } else if line(y + right) {
+                right_class
+            } else {
+                cell_class::FREE
+            }
+        })
+    };
+    let (glass, solid, free) = (cell_class::GLASS, cell_class::SOLID, cell_class::FREE);
+    let g = grid();
+    let glass_corridor = corridor(0.75, 0.55, glass, glass);
+    assert!(beside_a_pane(&glass_corridor, g) && between_two_sides(&glass_corridor, g));
+    let one_pane = corridor(0.75, 0.55, solid, cell_class::SUSPECTED_GLASS);
+    assert!(beside_a_pane(&one_pane, g) && between_two_sides(&one_pane, g));
+    let front = corridor(0.75, 0.55, free, glass);
+    assert!(beside_a_pane(&front, g) && !between_two_sides(&front, g));
+    let walls = corridor(0.75, 0.55, solid, solid);
+    assert!(!beside_a_pane(&walls, g) && between_two_sides(&walls, g));
+    let wide = corridor(1.5, 1.5, glass, glass);
+    assert!(!between_two_sides(&wide, g));
 }
